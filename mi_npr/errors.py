@@ -1,0 +1,43 @@
+"""The errors mi-npr raises on bad input: one line each, naming the file, parameter or value.
+
+The CLI prints ``str(error)`` and exits with code 1 (or 2 for usage errors); a traceback is a bug.
+"""
+
+from __future__ import annotations
+
+
+class NprError(Exception):
+    """Base class of every error mi-npr raises on purpose."""
+
+
+class SceneError(NprError):
+    """A scene cannot be loaded or rendered (missing file, malformed XML, Mitsuba error)."""
+
+
+class ParameterError(NprError, ValueError):
+    """A parameter has a bad value; the message names the parameter and the value."""
+
+
+class InputError(NprError):
+    """An input file (EXR, mesh, ...) cannot be read or holds something unexpected."""
+
+
+class OutputError(NprError):
+    """An output cannot be written (directory missing or not writable, disk full, ...)."""
+
+
+def one_line(exc: BaseException) -> str:
+    """Mitsuba's messages span lines and start with ``[file.cpp:123]``: keep the useful part."""
+    import re
+
+    text = str(exc).strip() or type(exc).__name__
+    marker = "Traceback (most recent call last):"
+    if marker in text:
+        # A Python plugin raised inside Mitsuba's loader: keep where, and the exception's message.
+        head, _, tail = text.partition(marker)
+        lines = [ln.strip() for ln in tail.splitlines() if ln.strip()]
+        last = re.sub(r"^[\w.]*(?:Error|Exception)\b:\s*", "", lines[-1]) if lines else ""
+        text = f"{head.strip()} {last}".strip()
+    text = re.sub(r"\[[\w./-]+\.(?:cpp|h|py):\d+\]\s*", "", text)
+    text = " ".join(part.strip() for part in text.splitlines() if part.strip())
+    return text
