@@ -1,0 +1,293 @@
+"""The one type every stage passes: named (H, W) layers, the object table and the camera.
+
+Layout: every layer is a C-contiguous ``numpy`` array of shape ``(H, W)``, row 0 at the top of the
+image, column 0 at the left, dtype ``float32`` or ``uint32``. Arrays that come from Dr.Jit are
+zero-copy views of its memory (``.numpy()``), so moving between the renderer, the kernels and the
+writers costs nothing.
+
+>>> import numpy as np
+>>> gb = GBuffer({"Z": np.ones((2, 3), np.float32)})
+>>> gb.shape, gb.names
+((2, 3), ('Z',))
+>>> gb.with_layers({"lines": np.zeros((2, 3))})["lines"].dtype
+dtype('float32')
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from . import layers as L
+from .errors import ParameterError
+
+
+def to_numpy(x: Any) -> np.ndarray:
+    """A numpy view of ``x`` (Dr.Jit arrays and tensors without a copy where possible)."""
+    if isinstance(x, np.ndarray):
+        return x
+    fn = getattr(x, "numpy", None)
+    if callable(fn):
+        return np.asarray(fn())
+    return np.asarray(x)
+
+
+def _as_layer(name: str, value: Any, shape: tuple[int, int] | None) -> np.ndarray:
+    a = to_numpy(value)
+    if a.ndim == 3 and a.shape[-1] == 1:
+        a = a[..., 0]
+    if a.ndim != 2:
+        raise ParameterError(f"layer {name!r}: expected a 2-D (H, W) array, got shape {a.shape}")
+    if shape is not None and a.shape != shape:
+        raise ParameterError(f"layer {name!r}: shape {a.shape} differs from the others' {shape}")
+    known = L.spec(name)
+    if known is not None:
+        dtype = np.dtype(known.dtype)
+    elif a.dtype.kind in "biu":
+        dtype = np.dtype(np.uint32)
+    else:
+        dtype = np.dtype(np.float32)
+    if dtype == np.uint32 and a.dtype.kind == "f":
+        if not np.all(np.isfinite(a)) or np.any(a < 0) or np.any(a != np.round(a)):
+            raise ParameterError(f"layer {name!r}: integer layer holds non-integer values")
+    if dtype == np.uint32 and a.dtype.kind == "i" and a.size and a.min() < 0:
+        raise ParameterError(f"layer {name!r}: integer layer holds negative values")
+    return np.ascontiguousarray(a, dtype=dtype)
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Where the image was seen from (Mitsuba's convention: camera looks along +z, +y is up).
+
+    ``to_world`` maps camera space to world space (4x4, column vectors, like
+    ``sensor.world_transform()``); ``fov`` is the horizontal field of view in degrees
+    (``None`` for orthographic cameras); ``resolution`` is (width, height) of the rendered
+    (crop) window.
+    """
+
+    to_world: np.ndarray
+    resolution: tuple[int, int]
+    fov: float | None = None
+    kind: str = "perspective"
+    near_clip: float = 1e-2
+    far_clip: float = 1e4
+
+    def __post_init__(self) -> None:
+        m = np.asarray(self.to_world, dtype=np.float64).reshape(4, 4)
+        object.__setattr__(self, "to_world", m)
+        object.__setattr__(self, "resolution", (int(self.resolution[0]), int(self.resolution[1])))
+
+    @property
+    def origin(self) -> np.ndarray:
+        return self.to_world[:3, 3].copy()
+
+    @property
+    def forward(self) -> np.ndarray:
+        d = self.to_world[:3, 2]
+        return d / np.linalg.norm(d)
+
+    @property
+    def up(self) -> np.ndarray:
+        u = self.to_world[:3, 1]
+        return u / np.linalg.norm(u)
+
+    @property
+    def world_to_camera(self) -> np.ndarray:
+        return np.linalg.inv(self.to_world)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "to_world": self.to_world.tolist(),
+            "resolution": list(self.resolution),
+            "fov": self.fov,
+            "kind": self.kind,
+            "near_clip": self.near_clip,
+            "far_clip": self.far_clip,
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Camera:
+        try:
+            return cls(
+                to_world=np.asarray(d["to_world"], dtype=np.float64),
+                resolution=tuple(d["resolution"]),  # type: ignore[arg-type]
+                fov=None if d.get("fov") is None else float(d["fov"]),
+                kind=str(d.get("kind", "perspective")),
+                near_clip=float(d.get("near_clip", 1e-2)),
+                far_clip=float(d.get("far_clip", 1e4)),
+            )
+        except (KeyError, TypeError, ValueError) as e:
+            raise ParameterError(f"camera description is incomplete or malformed: {e}") from e
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Camera):
+            return NotImplemented
+        return (
+            np.array_equal(self.to_world, other.to_world)
+            and self.resolution == other.resolution
+            and (
+                self.fov == other.fov
+                or (
+                    self.fov is not None
+                    and other.fov is not None
+                    and math.isclose(self.fov, other.fov)
+                )
+            )
+            and self.kind == other.kind
+            and self.near_clip == other.near_clip
+            and self.far_clip == other.far_clip
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+@dataclass(frozen=True)
+class GBuffer:
+    """Named per-pixel layers of one image, plus the object table and the camera.
+
+    ``objects`` maps object ids (1..N, as in the ``object_id`` layer) to shape names; 0 is the
+    background and is not in the table. ``metadata`` holds free-form strings (scene path, spp,
+    variant, mi-npr version) that writers store as file attributes.
+    """
+
+    layers: Mapping[str, np.ndarray]
+    objects: Mapping[int, str] = field(default_factory=dict)
+    camera: Camera | None = None
+    metadata: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.layers:
+            raise ParameterError("a GBuffer needs at least one layer")
+        checked: dict[str, np.ndarray] = {}
+        shape = None
+        for name, value in self.layers.items():
+            if not isinstance(name, str) or not name:
+                raise ParameterError(f"layer names must be non-empty strings, got {name!r}")
+            checked[name] = _as_layer(name, value, shape)
+            shape = checked[name].shape
+        objects = {int(k): str(v) for k, v in dict(self.objects).items()}
+        if 0 in objects:
+            raise ParameterError("object id 0 is the background and cannot be in the table")
+        object.__setattr__(self, "layers", checked)
+        object.__setattr__(self, "objects", dict(sorted(objects.items())))
+        object.__setattr__(self, "metadata", {str(k): str(v) for k, v in self.metadata.items()})
+
+    # ----------------------------------------------------------------- access
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(height, width)."""
+        return next(iter(self.layers.values())).shape  # type: ignore[return-value]
+
+    @property
+    def height(self) -> int:
+        return self.shape[0]
+
+    @property
+    def width(self) -> int:
+        return self.shape[1]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.layers)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.layers[name]
+        except KeyError:
+            raise KeyError(
+                f"no layer {name!r} in this GBuffer (it has: {', '.join(self.layers)})"
+            ) from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.layers
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.layers)
+
+    def __len__(self) -> int:
+        return len(self.layers)
+
+    def get(self, name: str, default: Any = None) -> Any:
+        return self.layers.get(name, default)
+
+    def stack(self, names: tuple[str, ...] | list[str]) -> np.ndarray:
+        """Several layers as one (H, W, len(names)) array (a copy)."""
+        return np.stack([self[n] for n in names], axis=-1)
+
+    @property
+    def beauty(self) -> np.ndarray:
+        """The beauty render as (H, W, 3) linear RGB."""
+        return self.stack(L.RGB)
+
+    @property
+    def normals(self) -> np.ndarray:
+        return self.stack(L.N)
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self.stack(L.P)
+
+    @property
+    def object_id(self) -> np.ndarray:
+        return self[L.OBJECT_ID]
+
+    def object_name(self, object_id: int) -> str:
+        if object_id == 0:
+            return "background"
+        try:
+            return self.objects[int(object_id)]
+        except KeyError:
+            raise KeyError(f"object id {object_id} is not in the object table") from None
+
+    def find_object(self, name: str) -> int:
+        """The id of the object called ``name``."""
+        for k, v in self.objects.items():
+            if v == name:
+                return k
+        raise KeyError(f"no object named {name!r} (objects: {', '.join(self.objects.values())})")
+
+    # ----------------------------------------------------------------- update
+    def with_layers(self, new: Mapping[str, Any]) -> GBuffer:
+        """A new GBuffer with ``new`` layers added (or replaced); this one is unchanged."""
+        merged = dict(self.layers)
+        merged.update(new)
+        return replace(self, layers=merged)
+
+    def without(self, *names: str) -> GBuffer:
+        return replace(self, layers={k: v for k, v in self.layers.items() if k not in names})
+
+    def with_metadata(self, **items: Any) -> GBuffer:
+        md = dict(self.metadata)
+        md.update({k: str(v) for k, v in items.items()})
+        return replace(self, metadata=md)
+
+    def __repr__(self) -> str:
+        chans = ", ".join(f"{k}:{v.dtype}" for k, v in self.layers.items())
+        return (
+            f"GBuffer({self.width}x{self.height}, layers=[{chans}], "
+            f"objects={len(self.objects)}, camera={'yes' if self.camera else 'no'})"
+        )
+
+    def __eq__(self, other: object) -> bool:
+        """Bit-exact equality of every layer (NaN equal to NaN), table, camera, metadata."""
+        if not isinstance(other, GBuffer):
+            return NotImplemented
+        if self.names != other.names:
+            return False
+        for k in self.names:
+            a, b = self[k], other[k]
+            if a.dtype != b.dtype or a.shape != b.shape:
+                return False
+            if not np.array_equal(a.view(np.uint32), b.view(np.uint32)):
+                return False
+        return (
+            dict(self.objects) == dict(other.objects)
+            and self.camera == other.camera
+            and dict(self.metadata) == dict(other.metadata)
+        )
+
+    __hash__ = None  # type: ignore[assignment]

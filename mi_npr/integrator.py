@@ -1,0 +1,131 @@
+"""Base class of mi-npr's Mitsuba integrators (re-imported for every active variant).
+
+An mi-npr integrator overrides ``render`` to run its own loop: the exact pixel-centre G-buffer
+pass of :mod:`mi_npr.render`, the nested beauty integrator's ``render`` (film filter and spp),
+then its post-passes (:meth:`NprIntegrator.post`). So plain ``mi.render(scene)`` returns a
+``TensorXf`` of shape (H, W, 3 + len(aov_names())): the beauty (with the integrator's lines or
+overlays composited) followed by the channels named by :meth:`aov_names`; integer layers are
+stored as float32 there (exact below 2**24). ``mi_npr.render(scene)`` returns the same layers as
+a :class:`~mi_npr.gbuffer.GBuffer`, with integer layers kept as uint32.
+
+Subclasses declare ``PLUGIN`` (the XML name), ``PARAMS`` (see :mod:`mi_npr.params`) and
+override :meth:`post` and :meth:`aov_names`. Plugins hold no algorithm: ``post`` calls library
+functions that serve the CLI and notebooks too.
+
+Mitsuba binds Python integrators to the variant active when the class is defined, which is why
+this module is reloaded by :func:`mi_npr._variant.register_plugins` on every variant change.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from . import layers as L
+from .errors import ParameterError
+from .gbuffer import GBuffer
+from .params import Param, read_props
+from .render import _headlight, render_gbuffer, trace
+from .scene import object_table, sensor_of
+
+
+def pack(gb: GBuffer, names: Sequence[str]) -> mi.TensorXf:
+    """The layers ``names`` of ``gb`` interleaved into one float32 (H, W, C) tensor."""
+    h, w = gb.shape
+    c, n = len(names), h * w
+    if not dr.is_jit_v(mi.Float):
+        return mi.TensorXf(np.stack([gb[k].astype(np.float32) for k in names], axis=-1))
+    # Copy the layers into one planar block (contiguous scatters), then one gather interleaves
+    # it; measured faster than strided scatters or numpy's stack at 1920x1080 (see benchmarks).
+    planar = dr.empty(mi.Float, c * n)
+    idx = dr.arange(mi.UInt32, n)
+    for i, k in enumerate(names):
+        a = gb[k]
+        v = mi.Float(a.reshape(-1)) if a.dtype == np.float32 else mi.Float(mi.UInt32(a.reshape(-1)))
+        dr.scatter(planar, v, idx + i * n)
+    k = dr.arange(mi.UInt32, c * n)
+    return mi.TensorXf(dr.gather(mi.Float, planar, (k % c) * n + k // c), shape=(h, w, c))
+
+
+class NprIntegrator(mi.SamplingIntegrator):
+    """Common machinery; see the module docstring. Not registered as a plugin itself."""
+
+    PLUGIN: ClassVar[str] = "npr_integrator"
+    PARAMS: ClassVar[tuple[Param, ...]] = ()
+
+    def __init__(self, props: mi.Properties) -> None:
+        super().__init__(props)
+        nested = [props.get(k) for k in props.keys() if isinstance(props.get(k), mi.Integrator)]
+        if len(nested) > 1:
+            raise ParameterError(f"{self.PLUGIN}: at most one nested (beauty) integrator")
+        self.beauty: mi.Integrator | None = nested[0] if nested else None
+        self.params: dict[str, Any] = read_props(
+            self.PLUGIN, self.PARAMS, props, lambda v: isinstance(v, mi.Object)
+        )
+
+    # ------------------------------------------------------------ the pipeline
+    def aov_names(self) -> list[str]:
+        """Channels after the beauty's R, G, B in ``mi.render``'s output."""
+        return list(L.GBUFFER_AOVS)
+
+    def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
+        """Add this integrator's layers to ``gb`` (and composite onto R, G, B)."""
+        return gb
+
+    def npr_gbuffer(
+        self,
+        scene: mi.Scene,
+        sensor: int | mi.Sensor = 0,
+        spp: int | None = None,
+        seed: int = 0,
+        source: str | None = None,
+    ) -> GBuffer:
+        """Everything this integrator produces, as a GBuffer (what ``mi_npr.render`` returns)."""
+        sensor = sensor_of(scene, sensor)
+        gb = render_gbuffer(scene, sensor, self.beauty, spp, seed, source)
+        gb = self.post(scene, sensor, gb)
+        return gb.with_metadata(**{"mi_npr/integrator": self.PLUGIN})
+
+    def render(
+        self,
+        scene: mi.Scene,
+        sensor: int | mi.Sensor = 0,
+        seed: int = 0,
+        spp: int = 0,
+        develop: bool = True,
+        evaluate: bool = True,
+    ) -> mi.TensorXf:
+        if not develop:
+            raise ParameterError(f"{self.PLUGIN}: develop=False is not supported")
+        gb = self.npr_gbuffer(scene, sensor, spp or None, seed)
+        return pack(gb, [*L.RGB, *self.aov_names()])
+
+    def sample(
+        self,
+        scene: mi.Scene,
+        sampler: mi.Sampler,
+        ray: mi.RayDifferential3f,
+        medium: mi.Medium | None = None,
+        active: Any = True,
+    ) -> tuple[Any, Any, list[Any]]:
+        """Per-ray fallback for callers that bypass :meth:`render`: the beauty from the nested
+        integrator (or the headlight shading) and the per-ray G-buffer channels (0 for layers
+        that need the whole image, such as ``lines``)."""
+        table = object_table(scene)
+        values = trace(scene, sensor_of(scene, 0), mi.Ray3f(ray), table, shade=False)
+        if isinstance(self.beauty, mi.SamplingIntegrator):
+            color, valid, _ = self.beauty.sample(scene, sampler, ray, medium, active)
+        else:
+            si = scene.ray_intersect(mi.Ray3f(ray))
+            color, valid = _headlight(si, mi.Ray3f(ray), si.is_valid()), si.is_valid()
+        aovs = [mi.Float(values[n]) if n in values else mi.Float(0.0) for n in self.aov_names()]
+        return color, valid, aovs
+
+    def to_string(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
+        nested = self.beauty.class_name() if self.beauty is not None else "none"
+        return f"{type(self).__name__}[beauty={nested}{', ' if args else ''}{args}]"

@@ -1,0 +1,189 @@
+"""Loading scenes, naming their objects stably, and describing their cameras.
+
+Object ids (the ``object_id`` layer) must not depend on the order Mitsuba keeps its shapes in
+(``scene.shapes()`` changes with the XML's order and with scene optimisation), and Mitsuba's own
+``shape_index`` AOV is wrong on JIT variants (mitsuba3 #955, #1059). So: every top-level shape
+gets a *name* (its XML ``id``; shapes without one are named ``<type>_<hash>`` from their type,
+bounding box and primitive count), names are sorted, and ids 1..N follow that order. A lookup
+table from Mitsuba's shape registry index to our id turns ``si.shape`` into an id with one gather.
+
+Scenes are loaded with ``optimize=False``: Mitsuba otherwise merges meshes that share a BSDF into
+one shape, and separate objects would get one id.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from .errors import ParameterError, SceneError, one_line
+from .gbuffer import Camera
+
+
+def _define_value(name: str, value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float, str)):
+        return str(value)
+    raise ParameterError(f"define {name!r}: value {value!r} is not a number, string or bool")
+
+
+def load_scene(scene: str | os.PathLike[str] | mi.Scene, **defines: Any) -> mi.Scene:
+    """A ``mi.Scene`` from an XML path (``defines`` fill its ``<default>``s), or ``scene`` itself.
+
+    Errors (missing file, malformed XML, unknown parameter, unused define) raise
+    :class:`~mi_npr.errors.SceneError` with a one-line message that names the file.
+    """
+    if isinstance(scene, mi.Scene):
+        if defines:
+            raise ParameterError(
+                f"defines ({', '.join(defines)}) only apply when loading a scene from a file"
+            )
+        return scene
+    if not isinstance(scene, (str, os.PathLike)):
+        raise ParameterError(f"expected a scene or an XML path, got {type(scene).__name__}")
+    path = os.fspath(scene)
+    if not os.path.isfile(path):
+        raise SceneError(f"{path}: no such file")
+    values = {k: _define_value(k, v) for k, v in defines.items()}
+    try:
+        return mi.load_file(path, optimize=False, **values)
+    except Exception as e:  # Mitsuba raises RuntimeError for every parse/instantiation problem
+        msg = one_line(e)
+        if path not in msg:
+            msg = f"{path}: {msg}"
+        raise SceneError(msg) from None
+
+
+def declared_defaults(path: str | os.PathLike[str]) -> set[str]:
+    """Names of the ``<default>`` parameters an XML scene declares (its includes too)."""
+    import xml.etree.ElementTree as ET
+
+    names: set[str] = set()
+    todo, seen = [os.path.abspath(path)], set()
+    while todo:
+        p = todo.pop()
+        if p in seen or not os.path.isfile(p):
+            continue
+        seen.add(p)
+        try:
+            root = ET.parse(p).getroot()
+        except ET.ParseError:
+            continue  # Mitsuba's loader reports malformed XML with a better message
+        for el in root.iter("default"):
+            if el.get("name"):
+                names.add(el.get("name", ""))
+        for el in root.iter("include"):
+            if el.get("filename"):
+                todo.append(os.path.join(os.path.dirname(p), el.get("filename", "")))
+    return names
+
+
+def sensor_of(scene: mi.Scene, sensor: int | mi.Sensor = 0) -> mi.Sensor:
+    """The scene's ``sensor``-th sensor (or ``sensor`` itself), with a clear error if absent."""
+    if isinstance(sensor, mi.Sensor):
+        return sensor
+    sensors = scene.sensors()
+    if not isinstance(sensor, int) or not 0 <= sensor < len(sensors):
+        raise ParameterError(f"sensor {sensor!r}: the scene has {len(sensors)} sensor(s)")
+    return sensors[sensor]
+
+
+def _scalar(x: Any) -> float:
+    return float(np.asarray(x).ravel()[0]) if not isinstance(x, (int, float)) else float(x)
+
+
+def camera_of(sensor: mi.Sensor) -> Camera:
+    """A :class:`~mi_npr.gbuffer.Camera` describing ``sensor`` (pose, fov, crop resolution)."""
+    m = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4)
+    params = mi.traverse(sensor)
+    fov = _scalar(params["x_fov"]) if "x_fov" in params else None
+    kind = sensor.class_name().replace("Camera", "").lower() or "camera"
+    near = _scalar(params["near_clip"]) if "near_clip" in params else 1e-2
+    far = _scalar(params["far_clip"]) if "far_clip" in params else 1e4
+    w, h = sensor.film().crop_size()
+    return Camera(m, (int(w), int(h)), fov, kind, near, far)
+
+
+def _auto_name(shape: mi.Shape) -> str:
+    """A name for a shape without an XML id: type + hash of bbox and primitive count."""
+    bb = shape.bbox()
+    nums = [*np.asarray(bb.min, dtype=np.float64).ravel(), *np.asarray(bb.max).ravel()]
+    key = ",".join(f"{v:.5g}" for v in nums) + f"|{shape.primitive_count()}"
+    kind = shape.class_name().lower()
+    return f"{kind}_{hashlib.sha1(key.encode()).hexdigest()[:8]}"
+
+
+@dataclass
+class ObjectTable:
+    """Stable object ids for a scene's top-level shapes (1..N, sorted by name; 0 = background)."""
+
+    names: dict[int, str]
+    shapes: dict[int, mi.Shape] = field(repr=False)
+    _lut: Any = field(default=None, repr=False)  # registry index -> id (JIT variants)
+    _by_ptr: dict[int, int] = field(default_factory=dict, repr=False)  # scalar variants
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def id_of(self, name: str) -> int:
+        for k, v in self.names.items():
+            if v == name:
+                return k
+        raise KeyError(f"no object named {name!r}")
+
+    def lookup(self, si: mi.SurfaceInteraction3f) -> Any:
+        """Object id of each interaction: ``UInt32`` (0 where nothing was hit)."""
+        valid = si.is_valid()
+        if dr.is_jit_v(mi.Float):
+            inst = dr.reinterpret_array(mi.UInt32, si.instance)
+            idx = dr.select(inst != 0, inst, dr.reinterpret_array(mi.UInt32, si.shape))
+            size = dr.width(self._lut)
+            ok = valid & (idx < size)
+            return dr.select(ok, dr.gather(mi.UInt32, self._lut, dr.minimum(idx, size - 1), ok), 0)
+        if not valid:
+            return 0
+        obj = si.instance if si.instance is not None else si.shape
+        return self._by_ptr.get(obj.ptr, 0) if obj is not None else 0
+
+
+def object_table(scene: mi.Scene) -> ObjectTable:
+    """Build the :class:`ObjectTable` of ``scene`` (see the module docstring for the rules)."""
+    shapes = list(scene.shapes())
+    names = []
+    for s in shapes:
+        sid = s.id()
+        names.append(sid if sid else _auto_name(s))
+    # Identical unnamed shapes get the same auto name: disambiguate in a stable way.
+    seen: dict[str, int] = {}
+    order = sorted(range(len(shapes)), key=lambda i: names[i])
+    for i in order:
+        n = names[i]
+        if n in seen:
+            seen[n] += 1
+            names[i] = f"{n}_{seen[n]}"
+        else:
+            seen[n] = 0
+    order = sorted(range(len(shapes)), key=lambda i: names[i])
+    table = {k + 1: names[i] for k, i in enumerate(order)}
+    by_shape = {k + 1: shapes[i] for k, i in enumerate(order)}
+    ids = np.zeros(len(shapes), dtype=np.uint32)
+    for k, i in enumerate(order):
+        ids[i] = k + 1
+    if dr.is_jit_v(mi.Float):
+        reg = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()).numpy(), np.uint32)
+        lut = np.zeros(int(reg.max()) + 1 if reg.size else 1, dtype=np.uint32)
+        lut[reg] = ids
+        return ObjectTable(table, by_shape, mi.UInt32(lut))
+    return ObjectTable(table, by_shape, None, {s.ptr: int(ids[i]) for i, s in enumerate(shapes)})
+
+
+def describe_objects(table: Mapping[int, str]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in table.items())

@@ -1,0 +1,80 @@
+"""The GBuffer type: layout checks, dtype rules, immutability of updates, camera round trip."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mi_npr
+from mi_npr import Camera, GBuffer, ParameterError
+
+
+def test01_layers_are_contiguous_and_typed():
+    z = np.arange(12, dtype=np.float64).reshape(3, 4).T  # non-contiguous, float64
+    ids = np.arange(12, dtype=np.int64).reshape(4, 3)
+    gb = GBuffer({"Z": z, "object_id": ids, "mask": ids > 3})
+    assert gb.shape == (4, 3) and gb.width == 3 and gb.height == 4
+    assert gb["Z"].dtype == np.float32 and gb["Z"].flags["C_CONTIGUOUS"]
+    assert gb["object_id"].dtype == np.uint32
+    assert gb["mask"].dtype == np.uint32  # unknown integer-like layers become uint32
+    np.testing.assert_array_equal(gb["Z"], z)
+
+
+@pytest.mark.parametrize(
+    ("layers", "message"),
+    [
+        ({"Z": np.zeros((2, 2)), "R": np.zeros((2, 3))}, "shape"),
+        ({"Z": np.zeros(4)}, "2-D"),
+        ({"object_id": np.array([[-1, 2]])}, "negative"),
+        ({"object_id": np.array([[0.5, 2.0]])}, "non-integer"),
+        ({}, "at least one layer"),
+    ],
+)
+def test02_bad_layers_name_the_problem(layers, message):
+    with pytest.raises(ParameterError, match=message):
+        GBuffer(layers)
+
+
+def test03_with_layers_returns_a_new_buffer():
+    gb = GBuffer({"Z": np.ones((2, 2))}, objects={1: "a"})
+    gb2 = gb.with_layers({"lines": np.zeros((2, 2))})
+    assert "lines" in gb2 and "lines" not in gb
+    assert gb2.objects == {1: "a"} and gb2.names == ("Z", "lines")
+    assert gb2.without("lines") == gb
+    with pytest.raises(KeyError, match=r"no layer .N.X.*Z, lines"):
+        gb2["N.X"]
+    with pytest.raises(ParameterError, match="background"):
+        GBuffer({"Z": np.ones((1, 1))}, objects={0: "bg"})
+
+
+def test04_equality_is_bit_exact_with_nan():
+    z = np.array([[np.nan, np.inf, -0.0]], dtype=np.float32)
+    a, b = GBuffer({"Z": z}), GBuffer({"Z": z.copy()})
+    assert a == b
+    assert a != GBuffer({"Z": np.array([[np.nan, np.inf, 0.0]], dtype=np.float32)})
+
+
+def test05_camera_dict_round_trip():
+    m = np.eye(4)
+    m[:3, 3] = [1, 2, 3]
+    cam = Camera(m, (64, 48), 45.0, "perspective", 0.01, 100.0)
+    assert Camera.from_dict(cam.to_dict()) == cam
+    np.testing.assert_array_equal(cam.origin, [1, 2, 3])
+    np.testing.assert_array_equal(cam.forward, [0, 0, 1])
+    with pytest.raises(ParameterError, match="camera"):
+        Camera.from_dict({"fov": 3})
+
+
+def test06_accepts_drjit_tensors_without_copy():
+    t = mi_npr.mi.TensorXf(np.arange(6, dtype=np.float32).reshape(2, 3))
+    gb = GBuffer({"Z": t})
+    np.testing.assert_array_equal(gb["Z"], [[0, 1, 2], [3, 4, 5]])
+
+
+def test07_object_lookup():
+    gb = GBuffer({"object_id": np.zeros((1, 1), np.uint32)}, objects={2: "b", 1: "a"})
+    assert list(gb.objects) == [1, 2]
+    assert gb.object_name(0) == "background" and gb.object_name(2) == "b"
+    assert gb.find_object("b") == 2
+    with pytest.raises(KeyError):
+        gb.object_name(7)
