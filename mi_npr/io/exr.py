@@ -1,0 +1,145 @@
+"""Multi-layer OpenEXR files holding a whole :class:`~mi_npr.gbuffer.GBuffer`.
+
+One single-part scanline file, ZIP-compressed (lossless), one channel per layer with the layer's
+own pixel type: ``FLOAT`` for float32 layers (bit-exact, ``inf`` and NaN included) and ``UINT``
+for ids. Channel names follow ``layer.channel`` (``P.X``, ``N.Z``, ``edges.real``), which Nuke and
+Blender read as layers. Header attributes:
+
+=====================  ==========================================================================
+``mi_npr/version``     the mi-npr version that wrote the file
+``mi_npr/objects``     JSON object table ``{"1": "floor", "2": "sphere", ...}`` (0 = background)
+``mi_npr/camera``      JSON camera: ``to_world`` (Mitsuba convention), resolution, fov, clip planes
+``mi_npr/layers``      JSON list of layer names in the GBuffer's order (EXR sorts channels)
+``mi_npr/...``         every other metadata string of the GBuffer (scene, spp, variant, ...)
+``worldToCamera``      the standard attribute (Imath ``M44f``, row-vector convention, i.e. the
+                       transpose of Mitsuba's column-vector world->camera matrix; Mitsuba's camera
+                       looks along +z with +y up)
+=====================  ==========================================================================
+
+Writes are atomic (temporary file + rename).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import OpenEXR
+
+from .. import layers as L
+from .._version import __version__
+from ..errors import InputError
+from ..gbuffer import Camera, GBuffer
+from ._atomic import atomic_output
+
+_PREFIX = "mi_npr/"
+_OBJECTS = _PREFIX + "objects"
+_CAMERA = _PREFIX + "camera"
+_LAYERS = _PREFIX + "layers"
+_VERSION = _PREFIX + "version"
+
+
+def _header(gb: GBuffer) -> dict[str, Any]:
+    header: dict[str, Any] = {
+        "compression": OpenEXR.ZIP_COMPRESSION,
+        "type": OpenEXR.scanlineimage,
+    }
+    for k, v in gb.metadata.items():
+        header[k if k.startswith(_PREFIX) else _PREFIX + k] = str(v)
+    header[_VERSION] = __version__
+    header[_OBJECTS] = json.dumps({str(k): v for k, v in gb.objects.items()})
+    header[_LAYERS] = json.dumps(list(gb.names))
+    if gb.camera is not None:
+        header[_CAMERA] = json.dumps(gb.camera.to_dict())
+        header["worldToCamera"] = np.ascontiguousarray(gb.camera.world_to_camera.T, np.float32)
+    return header
+
+
+def write_exr(path: str | os.PathLike[str], gbuffer: GBuffer) -> Path:
+    """Write every layer of ``gbuffer`` to ``path`` (atomically). Returns the path."""
+    if not isinstance(gbuffer, GBuffer):
+        raise TypeError(f"write_exr expects a GBuffer, got {type(gbuffer).__name__}")
+    # A non-contiguous array is written wrong without any error: always pass contiguous ones.
+    channels = {k: np.ascontiguousarray(v) for k, v in gbuffer.layers.items()}
+    target = Path(path)
+    with atomic_output(target) as tmp:
+        with OpenEXR.File(_header(gbuffer), channels) as f:
+            f.write(tmp)
+    return target
+
+
+def _order(names: list[str], stored: str | None) -> list[str]:
+    if stored:
+        try:
+            wanted = [n for n in json.loads(stored) if n in names]
+            return wanted + sorted(set(names) - set(wanted))
+        except (ValueError, TypeError):
+            pass
+    canon = [n for n in L.SPECS if n in names]
+    return canon + sorted(set(names) - set(canon))
+
+
+def read_exr(path: str | os.PathLike[str]) -> GBuffer:
+    """Read an EXR written by :func:`write_exr` (or any single-part scanline EXR)."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{p}: no such file")
+    try:
+        f = OpenEXR.File(str(p), separate_channels=True)
+    except Exception as e:
+        raise InputError(f"{p}: not a readable OpenEXR file ({e})") from None
+    with f:
+        if len(f.parts) != 1:
+            raise InputError(f"{p}: multi-part EXR files are not supported")
+        # Closing the file clears its header and channel objects: copy what we keep.
+        header = dict(f.header())
+        raw = {name: np.array(ch.pixels, copy=True) for name, ch in f.channels().items()}
+    layers: dict[str, np.ndarray] = {}
+    for name in _order(list(raw), header.get(_LAYERS)):
+        a = raw[name]
+        if a.ndim != 2:
+            raise InputError(f"{p}: channel {name!r} has shape {a.shape}, expected (H, W)")
+        if a.dtype == np.float16:
+            a = a.astype(np.float32)
+        layers[name] = a
+    if not layers:
+        raise InputError(f"{p}: no channels")
+    try:
+        objects = {int(k): v for k, v in json.loads(header.get(_OBJECTS, "{}")).items()}
+        camera = Camera.from_dict(json.loads(header[_CAMERA])) if _CAMERA in header else None
+    except (ValueError, TypeError, AttributeError) as e:
+        raise InputError(f"{p}: malformed mi-npr header ({e})") from None
+    skip = {_OBJECTS, _CAMERA, _LAYERS}
+    meta = {k: v for k, v in header.items() if k.startswith(_PREFIX) and k not in skip}
+    meta = {k: v for k, v in meta.items() if isinstance(v, str)}
+    return GBuffer(layers, objects, camera, meta)
+
+
+def describe(gb: GBuffer) -> dict[str, Any]:
+    """A JSON-friendly summary: size, layers (type, range), object table, camera, metadata."""
+    info_layers = []
+    for name in gb.names:
+        a = gb[name]
+        finite = a[np.isfinite(a)] if a.dtype.kind == "f" else a
+        spec = L.spec(name)
+        info_layers.append(
+            {
+                "name": name,
+                "type": str(a.dtype),
+                "min": float(finite.min()) if finite.size else None,
+                "max": float(finite.max()) if finite.size else None,
+                "non_finite": int(a.size - finite.size),
+                "meaning": spec.description if spec else "",
+            }
+        )
+    return {
+        "width": gb.width,
+        "height": gb.height,
+        "layers": info_layers,
+        "objects": {str(k): v for k, v in gb.objects.items()},
+        "camera": gb.camera.to_dict() if gb.camera is not None else None,
+        "metadata": dict(gb.metadata),
+    }

@@ -1,0 +1,47 @@
+"""PNG output (Pillow): beauty renders and overlays, sRGB-encoded, written atomically."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from ..errors import ParameterError
+from ._atomic import atomic_output
+
+
+def linear_to_srgb(x: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function (IEC 61966-2-1) on linear values, clipped to [0, 1]."""
+    x = np.clip(np.nan_to_num(np.asarray(x, dtype=np.float32), nan=0.0), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def to_rgb8(image: np.ndarray, linear: bool = True) -> np.ndarray:
+    """A float image (H, W[, C]) in [0, 1] as uint8, sRGB-encoded when ``linear``."""
+    a = np.asarray(image)
+    if a.dtype == np.uint8:
+        return a
+    if linear:
+        a = linear_to_srgb(a)
+        if a.ndim == 3 and a.shape[-1] == 4:  # alpha is not colour: store it as is
+            a[..., 3] = np.clip(np.asarray(image)[..., 3], 0.0, 1.0)
+    else:
+        a = np.clip(np.nan_to_num(a.astype(np.float32), nan=0.0), 0.0, 1.0)
+    return (a * 255.0 + 0.5).astype(np.uint8)
+
+
+def write_png(path: str | os.PathLike[str], image: np.ndarray, linear: bool = True) -> Path:
+    """Write (H, W), (H, W, 3) or (H, W, 4) ``image`` as PNG; float input is sRGB-encoded when
+    ``linear`` (the default), else clipped. Returns the path."""
+    a = np.asarray(image)
+    if a.ndim not in (2, 3) or (a.ndim == 3 and a.shape[-1] not in (1, 3, 4)):
+        raise ParameterError(f"{path}: cannot write an image of shape {a.shape} as PNG")
+    if a.ndim == 3 and a.shape[-1] == 1:
+        a = a[..., 0]
+    rgb8 = to_rgb8(a, linear)
+    target = Path(path)
+    with atomic_output(target) as tmp:
+        Image.fromarray(rgb8).save(tmp, format="PNG")
+    return target

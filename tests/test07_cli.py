@@ -1,0 +1,167 @@
+"""The mi-npr command: outputs, several scenes, and one-line errors for bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from mi_npr import cli
+from mi_npr.io import read_exr
+
+from .helpers import run_cli, scene_xml
+
+BALL = (
+    '<shape type="sphere" id="ball"><point name="center" x="0" y="0" z="4"/></shape>'
+    '<emitter type="constant"/>'
+)
+NESTED = '<integrator type="npr_gbuffer"><integrator type="direct"/></integrator>'
+
+
+@pytest.fixture
+def ball(tmp_path) -> Path:
+    p = tmp_path / "ball.xml"
+    p.write_text(scene_xml(BALL, integrator=NESTED, spp=2))
+    return p
+
+
+def _files(d: Path) -> list[str]:
+    return sorted(os.listdir(d)) if d.exists() else []
+
+
+def test01_render_writes_exr_and_png(ball, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert cli.main(["render", str(ball), "-o", str(out), "-D", "unused_is_fine=1"]) == 1
+    assert "Found unused parameters" in capsys.readouterr().err  # Mitsuba's rule, one line
+    assert cli.main(["render", str(ball), "-o", str(out), "--spp", "3"]) == 0
+    assert _files(out) == ["ball.exr", "ball.png"]
+    gb = read_exr(out / "ball.exr")
+    assert gb.metadata["mi_npr/spp"] == "3" and gb.objects == {1: "ball"}
+    png = np.asarray(Image.open(out / "ball.png"))
+    assert png.shape == (24, 32, 3) and png.dtype == np.uint8
+
+
+def test02_several_scenes_one_failing(ball, tmp_path, capsys):
+    broken = tmp_path / "broken.xml"
+    broken.write_text("<scene version='3.0.0'><shape type='sphere'>")
+    other = tmp_path / "other.xml"
+    other.write_text(scene_xml(BALL, width=8, height=8))
+    out = tmp_path / "out"
+    code = cli.main(["render", str(ball), str(broken), str(other), "-o", str(out), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert _files(out) == ["ball.exr", "ball.png", "other.exr", "other.png"]
+    assert f"{broken}" in err and "1 of 3 inputs failed" in err
+    assert "Traceback" not in err
+
+
+def test03_defines_fill_defaults(tmp_path, scenes):
+    out = tmp_path / "o"
+    code = cli.main(
+        [
+            "render",
+            str(scenes / "scene2.xml"),
+            "-o",
+            str(out),
+            "-D",
+            "width=20",
+            "-D",
+            "height=10",
+            "-D",
+            "spp=2",
+            "--no-progress",
+        ]
+    )
+    assert code == 0
+    gb = read_exr(out / "scene2.exr")
+    assert gb.shape == (10, 20) and gb.metadata["mi_npr/spp"] == "2"
+
+
+def test04_info(ball, tmp_path, capsys):
+    out = tmp_path / "out"
+    cli.main(["render", str(ball), "-o", str(out)])
+    capsys.readouterr()
+    assert cli.main(["info", str(out / "ball.exr")]) == 0
+    text = capsys.readouterr().out
+    assert "object_id" in text and "uint32" in text and "1: ball" in text and "fov 40" in text
+    assert cli.main(["info", str(out / "ball.exr"), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["objects"] == {"1": "ball"} and info["width"] == 32
+    z = next(layer for layer in info["layers"] if layer["name"] == "Z")
+    assert z["non_finite"] > 0  # the background's +inf
+
+
+def test05_version():
+    res = run_cli("--version")
+    assert res.returncode == 0 and res.stdout.startswith("mi-npr 0.1.0 (mitsuba 3.9.1")
+
+
+BAD_INPUTS = [
+    # (name, scene text or None for a missing file, extra args, expected code, expected text)
+    ("missing", None, [], 1, "no such file"),
+    ("malformed", "<scene version='3.0.0'><shape type='sphere'>", [], 1, "malformed.xml"),
+    (
+        "unknown_param",
+        scene_xml(
+            BALL,
+            integrator='<integrator type="npr_gbuffer"><float name="cc" value="2"/></integrator>',
+        ),
+        [],
+        1,
+        "npr_gbuffer: unknown parameter 'cc'",
+    ),
+    ("bad_define", scene_xml(BALL), ["-D", "width"], 2, "-D 'width': expected name=value"),
+    ("bad_spp", scene_xml(BALL), ["--spp", "0"], 2, "not a positive integer"),
+]
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "extra", "code", "expected"), BAD_INPUTS, ids=[b[0] for b in BAD_INPUTS]
+)
+def test06_bad_input_is_one_line_no_traceback_no_file(tmp_path, name, text, extra, code, expected):
+    scene = tmp_path / f"{name}.xml"
+    if text is not None:
+        scene.write_text(text)
+    out = tmp_path / "out"
+    res = run_cli("render", str(scene), "-o", str(out), *extra)
+    assert res.returncode == code, res.stderr
+    assert "Traceback" not in res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert expected in lines[-1]
+    if code == 1:
+        assert len(lines) == 1
+    assert [f for f in _files(out) if not f.startswith(".")] == []
+    assert not [f for f in _files(out) if f.startswith(".")]  # no temporary file either
+
+
+def test07_unwritable_output_directory(ball, tmp_path, capsys):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    code = cli.main(["render", str(ball), "-o", str(blocker / "out")])
+    err = capsys.readouterr().err
+    assert code == 1 and "cannot create output directory" in err and err.count("\n") == 1
+    if os.geteuid() != 0:  # root writes anywhere: only an ordinary user sees this case
+        ro = tmp_path / "ro"
+        ro.mkdir()
+        ro.chmod(0o500)
+        assert cli.main(["render", str(ball), "-o", str(ro)]) == 1
+        assert "not writable" in capsys.readouterr().err
+
+
+def test08_same_stem_twice_is_refused(ball, tmp_path, capsys):
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    (sub / "ball.xml").write_text(ball.read_text())
+    code = cli.main(["render", str(ball), str(sub / "ball.xml"), "-o", str(tmp_path / "o")])
+    assert code == 1 and "would both write outputs named 'ball'" in capsys.readouterr().err
+
+
+def test09_info_on_a_non_exr(tmp_path, capsys):
+    bad = tmp_path / "x.exr"
+    bad.write_text("hello")
+    assert cli.main(["info", str(bad)]) == 1
+    assert "not a readable OpenEXR file" in capsys.readouterr().err

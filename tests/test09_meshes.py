@@ -1,0 +1,78 @@
+"""Mesh generators and PLY I/O."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mi_npr import InputError
+from mi_npr.meshes import box, merge, read_ply, uv_sphere, write_ply
+
+
+def _outward(V, F):
+    tri = V[F]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    return np.einsum("ij,ij->i", n, tri.mean(axis=1) - V.mean(axis=0)) > 0
+
+
+def test01_uv_sphere_counts_and_winding():
+    V, F = uv_sphere(36, 30)
+    assert V.shape == (1046, 3) and F.shape == (2088, 3)  # the paper's 2088 faces
+    np.testing.assert_allclose(np.linalg.norm(V, axis=1), 1.0, rtol=1e-6)
+    assert _outward(V, F).all()
+    # Closed: every edge is shared by exactly two faces.
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    assert (counts == 2).all()
+
+
+def test02_box_is_closed_and_outward():
+    V, F = box((1, 2, 3), center=(1, 0, 0))
+    assert V.shape == (8, 3) and F.shape == (12, 3) and _outward(V, F).all()
+    np.testing.assert_allclose(V.min(0), [0.5, -1, -1.5])
+
+
+def test03_ply_round_trip_binary(tmp_path):
+    V, F = merge(uv_sphere(8, 6), box(0.3))
+    path = write_ply(tmp_path / "m.ply", V, F)
+    V2, F2, extra = read_ply(path)
+    np.testing.assert_array_equal(V2, V)
+    np.testing.assert_array_equal(F2, F)
+    assert extra == {}
+
+
+def test04_ascii_ply_with_quads_and_normals(tmp_path):
+    text = """ply
+format ascii 1.0
+element vertex 4
+property float x
+property float y
+property float z
+property float nx
+property float ny
+property float nz
+element face 1
+property list uchar int vertex_indices
+end_header
+0 0 0 0 0 1
+1 0 0 0 0 1
+1 1 0 0 0 1
+0 1 0 0 0 1
+4 0 1 2 3
+"""
+    p = tmp_path / "q.ply"
+    p.write_text(text)
+    V, F, extra = read_ply(p)
+    assert V.shape == (4, 3)
+    np.testing.assert_array_equal(F, [[0, 1, 2], [0, 2, 3]])
+    np.testing.assert_array_equal(extra["nz"], [1, 1, 1, 1])
+
+
+def test05_bad_files(tmp_path):
+    with pytest.raises(InputError, match="no such file"):
+        read_ply(tmp_path / "nope.ply")
+    (tmp_path / "x.ply").write_text("hello")
+    with pytest.raises(InputError, match="not a PLY"):
+        read_ply(tmp_path / "x.ply")
+    with pytest.raises(ValueError, match="does not exist"):
+        write_ply(tmp_path / "y.ply", np.zeros((1, 3)), np.array([[0, 1, 2]]))
