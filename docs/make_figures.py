@@ -1,0 +1,43 @@
+"""Regenerate the pictures of the README: python docs/make_figures.py (needs the test extra)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+import mi_npr
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "docs" / "images"
+
+
+def gbuffer_panel() -> Path:
+    gb = mi_npr.render(ROOT / "scenes_xml" / "scene1.xml", width=320, height=240, spp=64)
+    z = np.where(np.isfinite(gb["Z"]), gb["Z"], np.nan)
+    panels = [
+        (mi_npr.io.to_rgb8(gb.beauty), "R G B (nested path tracer)", {}),
+        (z, "Z", {"cmap": "magma_r"}),
+        (np.clip(gb.normals * 0.5 + 0.5, 0, 1), "N.X N.Y N.Z", {}),
+        (gb["object_id"], "object_id", {"cmap": "tab10", "interpolation": "nearest"}),
+        (gb["prim_id"] % 7, "prim_id (mod 7)", {"cmap": "viridis", "interpolation": "nearest"}),
+        (np.clip(np.abs(gb.positions) / 4, 0, 1), "|P.X P.Y P.Z| / 4", {}),
+    ]
+    fig, ax = plt.subplots(2, 3, figsize=(12, 6.2))
+    for a, (img, title, kw) in zip(ax.flat, panels, strict=True):
+        a.imshow(img, **kw)
+        a.set_title(title)
+        a.axis("off")
+    fig.tight_layout()
+    path = OUT / "gbuffer_scene1.png"
+    fig.savefig(path, dpi=80)
+    return path
+
+
+if __name__ == "__main__":
+    OUT.mkdir(parents=True, exist_ok=True)
+    print(gbuffer_panel())
