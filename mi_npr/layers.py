@@ -25,6 +25,8 @@ class LayerSpec:
 
 R, G, B = "R", "G", "B"
 RGB = (R, G, B)
+#: The beauty before lines or overlays were composited onto R G B (kept for compositing apps).
+RAW_RGB = ("beauty.R", "beauty.G", "beauty.B")
 Z = "Z"
 P = ("P.X", "P.Y", "P.Z")
 N = ("N.X", "N.Y", "N.Z")

@@ -78,3 +78,21 @@ def test07_object_lookup():
     assert gb.find_object("b") == 2
     with pytest.raises(KeyError):
         gb.object_name(7)
+
+
+def test08_overlays_keep_the_raw_beauty():
+    from mi_npr import compose
+
+    h, w = 3, 4
+    rgb = {c: np.full((h, w), 0.5, np.float32) for c in "RGB"}
+    gb = GBuffer(rgb)
+    a = np.zeros((h, w), np.float32)
+    a[1, 2], a[0, 0] = 1.0, np.nan
+    once = compose.with_overlay(gb, a, (1, 0, 0))
+    np.testing.assert_array_equal(once.beauty[1, 2], [1, 0, 0])
+    np.testing.assert_array_equal(once.beauty[0, 0], [0.5, 0.5, 0.5])  # NaN coverage is none
+    twice = compose.with_overlay(once, np.roll(a, 1, axis=1), (0, 0, 1))
+    np.testing.assert_array_equal(compose.raw_beauty(twice), gb.beauty)  # raw kept once
+    np.testing.assert_array_equal(twice.beauty[1, 3], [0, 0, 1])
+    with pytest.raises(ParameterError, match="RGB triple"):
+        compose.over(gb.beauty, a, (1, 0))
