@@ -52,8 +52,9 @@ def test01_matches_reference(shape, near, far):
     np.testing.assert_allclose(got, ref_normalize(Z.astype(np.float32), near, far), atol=1e-6)
 
 
-def test02_frame_range_maps_to_0_and_1():
-    Z = _depths((7, 5))
+@pytest.mark.parametrize("shape", [(7, 5), (64, 48), (65, 67)])  # 65x67: a partial reduction block
+def test02_frame_range_maps_to_exactly_0_and_1(shape):
+    Z = _depths(shape)
     D = np.asarray(normalize_depth(Z))
     finite = np.isfinite(Z)
     assert D[finite].min() == 0.0 and D[finite].max() == 1.0

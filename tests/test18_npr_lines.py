@@ -88,21 +88,10 @@ def test03_parameters_reach_the_chain(write_scene):
 
 def test04_defaults_are_the_chains_defaults():
     integ = mi.load_dict({"type": "npr_lines"})
-    assert [p.name for p in integ.PARAMS] == [
-        "c",
-        "t",
-        "t0",
-        "dilation_size",
-        "dilation_iterations",
-        "remove_isolated",
-        "id_edges",
-        "normal_edges",
-        "line_color",
-        "near",
-        "far",
-    ]
-    chain = {p.name: p.default for p in K.LINES_PARAMS}
-    assert {k: v for k, v in integ.params.items() if k != "line_color"} == chain
+    chain = [p.name for p in K.LINES_PARAMS]  # ... normal_edges, near, far
+    assert [p.name for p in integ.PARAMS] == [*chain[:-2], "line_color", *chain[-2:]]
+    defaults = {p.name: p.default for p in K.LINES_PARAMS}
+    assert {k: v for k, v in integ.params.items() if k != "line_color"} == defaults
     assert integ.params["line_color"] == (0.0, 0.0, 0.0)
 
 

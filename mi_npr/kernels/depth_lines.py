@@ -69,8 +69,8 @@ from ._stencil import (
     window,
 )
 
-#: Largest float32: the scale of a degenerate range (far == near) turns it into a step.
-_F32_MAX = 3.4028234663852886e38
+#: Smallest normal float32: the span of a degenerate range (far == near) turns it into a step.
+_F32_MIN = 1.1754943508222875e-38
 #: Block size of the symbolic min/max reductions (one fused pass, then a tiny reduction).
 _BLOCK = 4096
 
@@ -112,12 +112,13 @@ def depth_normalizer(
             n = dr.minimum(n, f)
     else:
         n, f = opaque(near), opaque(far)
-    # far == near (a flat frame, or one finite pixel): a step, 0 up to near and 1 beyond.
-    scale = dr.select(f > n, 1.0 / (f - n), _F32_MAX)
-    dr.eval(n, scale)
+    # A division (not a reciprocal) so that far maps to exactly 1. far == near (a flat frame, or
+    # one finite pixel): the smallest normal float makes it a step, 0 up to near and 1 beyond.
+    span = dr.select(f > n, f - n, _F32_MIN)
+    dr.eval(n, span)
 
     def normalize(v: Float) -> Float:
-        return dr.select(dr.isfinite(v), dr.clip((v - n) * scale, 0.0, 1.0), 1.0)
+        return dr.select(dr.isfinite(v), dr.clip((v - n) / span, 0.0, 1.0), 1.0)
 
     return normalize
 
