@@ -31,7 +31,8 @@ def test01_exr_has_lines_and_png_is_the_composited_beauty(tmp_path, capsys):
         png[~(gb[L.LINES] > 0)], raw[~(gb[L.LINES] > 0)]
     )
     assert cli.main(["info", str(out / "ball.exr")]) == 0
-    assert "gray-level line image" in capsys.readouterr().out
+    info = capsys.readouterr().out
+    assert "gray-level line image" in info and "beauty red before lines" in info
 
 
 def test02_paper_scene_with_define(tmp_path, scenes):
