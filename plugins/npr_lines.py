@@ -94,6 +94,7 @@ from mi_npr.compose import with_overlay
 from mi_npr.gbuffer import GBuffer, to_numpy
 from mi_npr.integrator import NprIntegrator
 from mi_npr.kernels import LINES_PARAMS, lines
+from mi_npr.kernels.depth_lines import check_range
 from mi_npr.params import Param
 
 _LINE_COLOR = Param("line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)")
@@ -106,6 +107,11 @@ class NprLinesIntegrator(NprIntegrator):
     PLUGIN = "npr_lines"
     # The chain's parameters with line_color before near and far, as the manual lists them.
     PARAMS = (*LINES_PARAMS[:-2], _LINE_COLOR, *LINES_PARAMS[-2:])
+
+    def __init__(self, props: mi.Properties) -> None:
+        super().__init__(props)
+        # near < far is a rule between two parameters: check it when the scene loads.
+        check_range(self.params["near"], self.params["far"], self.PLUGIN)
 
     def aov_names(self) -> list[str]:
         return [L.LINES, *L.GBUFFER_AOVS]

@@ -126,7 +126,7 @@ def test04_accepts_a_gbuffer_and_nan_never_spreads():
         ({"dilation_size": 1}, "parameter 'dilation_size' = 1"),
         ({"dilation_iterations": -2}, "parameter 'dilation_iterations' = -2"),
         ({"normal_edges": -5.0}, "parameter 'normal_edges' = -5.0: must lie in [0, 180)"),
-        ({"near": 5.0, "far": 1.0}, "near = 5.0, far = 1.0: near must be less than far"),
+        ({"near": 5.0, "far": 1.0}, "lines: near = 5.0, far = 1.0: near must be less than far"),
         ({"cc": 1.0}, "lines: unknown parameter 'cc'"),
         ({"remove_isolated": "maybe"}, "parameter 'remove_isolated' = 'maybe'"),
     ],

@@ -98,7 +98,7 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
     (120, 160)
     """
     p = check_values("lines", LINES_PARAMS, params)
-    check_range(p["near"], p["far"])
+    check_range(p["near"], p["far"], "lines")
     z, shape = float_image(_layer(gbuffer, L.Z, "depth"), L.Z)
     grid = Grid(shape)
 

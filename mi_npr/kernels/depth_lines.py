@@ -75,13 +75,14 @@ _F32_MIN = 1.1754943508222875e-38
 _BLOCK = 4096
 
 
-def check_range(near: float | None, far: float | None) -> None:
+def check_range(near: float | None, far: float | None, who: str = "") -> None:
     """``near`` and ``far`` (each optional) must be finite, with ``near < far`` when both are
-    given."""
+    given; ``who`` (a plugin or function name) prefixes the error."""
     require("near", near, finite)
     require("far", far, finite)
     if near is not None and far is not None and not float(near) < float(far):
-        raise ParameterError(f"near = {near!r}, far = {far!r}: near must be less than far")
+        prefix = f"{who}: " if who else ""
+        raise ParameterError(f"{prefix}near = {near!r}, far = {far!r}: near must be less than far")
 
 
 def _finite_range(z: Float) -> tuple[Float, Float]:
