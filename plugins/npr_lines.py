@@ -86,6 +86,7 @@ Every scene of ``scenes_xml/`` takes it: ``mi-npr render scenes_xml/scene1.xml -
 from __future__ import annotations
 
 import json
+import math
 
 import mitsuba as mi
 
@@ -97,7 +98,15 @@ from mi_npr.kernels import LINES_PARAMS, lines
 from mi_npr.kernels.depth_lines import check_range
 from mi_npr.params import Param
 
-_LINE_COLOR = Param("line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)")
+
+def _color(rgb: tuple[float, ...]) -> str | None:
+    ok = all(math.isfinite(v) and v >= 0 for v in rgb)
+    return None if ok else "must be finite and >= 0 (linear RGB)"
+
+
+_LINE_COLOR = Param(
+    "line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)", _color
+)
 _CHAIN = tuple(p.name for p in LINES_PARAMS)
 
 

@@ -107,6 +107,7 @@ def test04_defaults_are_the_chains_defaults():
         ('<float name="t0" value="-0.5"/>', "parameter 't0' = -0.5"),
         ('<float name="normal_edges" value="180"/>', "parameter 'normal_edges' = 180.0"),
         ('<string name="line_color" value="blue"/>', "parameter 'line_color' = 'blue'"),
+        ('<rgb name="line_color" value="-1, 0, 0"/>', "'line_color' = [-1, 0, 0]: must be finite"),
         ('<string name="remove_isolated" value="maybe"/>', "parameter 'remove_isolated'"),
         ('<float name="tt" value="1"/>', "npr_lines: unknown parameter 'tt'"),
     ],
