@@ -50,7 +50,7 @@ is the ``lines`` layer, and it is composited onto the nested integrator's beauty
    * - ``line_color``
      - rgb
      - 0, 0, 0
-     - Colour of the lines composited onto the beauty (linear RGB).
+     - Colour of the lines composited onto the beauty (linear RGB, finite, >= 0).
    * - ``near``, ``far``
      - float
      - unset
