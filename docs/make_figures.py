@@ -38,6 +38,27 @@ def gbuffer_panel() -> Path:
     return path
 
 
+def lines_panel() -> Path:
+    path_xml = ROOT / "scenes_xml" / "scene4.xml"
+    gb = mi_npr.render(path_xml, width=640, height=480, spp=64, integrator="npr_lines")
+    extra = np.asarray(mi_npr.kernels.lines(gb, id_edges=True, normal_edges=30.0))
+    panels = [
+        (mi_npr.io.to_rgb8(gb.beauty), "R G B (npr_lines, defaults)"),
+        (1.0 - gb["lines"], "lines"),
+        (1.0 - extra, "lines, id_edges + normal_edges=30"),
+    ]
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.3))
+    for a, (img, title) in zip(ax, panels, strict=True):
+        a.imshow(img, cmap="gray", vmin=0, vmax=1)
+        a.set_title(title)
+        a.axis("off")
+    fig.tight_layout()
+    path = OUT / "lines_scene4.png"
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    return path
+
+
 if __name__ == "__main__":
     OUT.mkdir(parents=True, exist_ok=True)
     print(gbuffer_panel())
+    print(lines_panel())

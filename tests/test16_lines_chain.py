@@ -1,0 +1,150 @@
+"""lines(gbuffer, **params): the thesis's chain, against the composition of the kernels and of
+the brute-force references of tests 11-15."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mi_npr
+from mi_npr import kernels as K
+from mi_npr import layers as L
+
+from .test11_normalize_depth import ref_normalize
+from .test12_depth_contours import ref_contours
+from .test13_remove_isolated import ref_remove_isolated
+from .test14_selective_dilation import ref_selective_dilation
+from .test15_edges import ref_id_edges, ref_normal_edges
+
+RNG = np.random.default_rng(16)
+SIZES = [(1, 1), (1, 9), (9, 1), (7, 5), (64, 48)]
+DEFAULTS = {p.name: p.default for p in K.LINES_PARAMS}
+
+
+def ref_lines(gb, **params):
+    """The chain written with the references: normalise -> selective dilation -> eq. 5.1 ->
+    eq. 5.2 -> max with ID and normal edges."""
+    p = {**DEFAULTS, **params}
+    D = ref_normalize(gb[L.Z], p["near"], p["far"]).astype(np.float32)
+    D = ref_selective_dilation(D, p["dilation_size"], p["dilation_iterations"])
+    ink = ref_contours(D.astype(np.float32), p["c"], p["t"])
+    if p["remove_isolated"]:
+        ink = ref_remove_isolated(ink, p["t0"])
+    if p["id_edges"]:
+        ink = np.maximum(ink, ref_id_edges(gb[L.OBJECT_ID]))
+    if p["normal_edges"] > 0:
+        n = np.stack([gb[k] for k in L.N], axis=-1)
+        ink = np.maximum(ink, ref_normal_edges(n, gb[L.OBJECT_ID], p["normal_edges"]))
+    return ink
+
+
+def kernel_lines(gb, **params):
+    """The same chain from the public kernels, one call each."""
+    p = {**DEFAULTS, **params}
+    D = K.normalize_depth(gb[L.Z], p["near"], p["far"])
+    if p["dilation_iterations"]:
+        D = K.selective_dilation(D, p["dilation_size"], p["dilation_iterations"])
+    ink = K.depth_contours(D, p["c"], p["t"])
+    if p["remove_isolated"]:
+        ink = K.remove_isolated(ink, p["t0"])
+    ink = np.asarray(ink)
+    if p["id_edges"]:
+        ink = np.maximum(ink, np.asarray(K.id_edges(gb[L.OBJECT_ID])))
+    if p["normal_edges"] > 0:
+        n = np.stack([gb[k] for k in L.N], axis=-1)
+        ink = np.maximum(ink, np.asarray(K.normal_edges(n, gb[L.OBJECT_ID], p["normal_edges"])))
+    return ink
+
+
+def blocks(shape):
+    """A G-buffer of a few boxes at different depths in front of a slanted wall and background."""
+    h, w = shape
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    Z = 8.0 + 0.05 * xx + 0.03 * yy
+    ids = np.ones(shape, np.uint32)
+    for k in range(2, 6):
+        y0, x0 = RNG.integers(0, h), RNG.integers(0, w)
+        y1, x1 = y0 + RNG.integers(1, h // 2 + 2), x0 + RNG.integers(1, w // 2 + 2)
+        Z[y0:y1, x0:x1] = RNG.uniform(2.0, 7.0)
+        ids[y0:y1, x0:x1] = k
+    sky = RNG.random(shape) < 0.05
+    Z[sky], ids[sky] = np.inf, 0
+    n = RNG.normal(size=(*shape, 3)).astype(np.float32)
+    return {L.Z: Z, L.OBJECT_ID: ids, **{k: n[..., i] for i, k in enumerate(L.N)}}
+
+
+CASES = [
+    {},
+    {"dilation_iterations": 0, "remove_isolated": False},
+    {"c": 5.0, "t": 0.5, "t0": 0.2, "dilation_size": 5, "dilation_iterations": 2},
+    {"id_edges": True},
+    {"normal_edges": 40.0, "near": 1.0, "far": 20.0},
+    {"id_edges": True, "normal_edges": 10.0, "remove_isolated": False, "far": 9.0},
+]
+
+
+@pytest.mark.parametrize("shape", SIZES)
+@pytest.mark.parametrize("params", CASES)
+def test01_chain_is_the_composition_of_the_kernels(shape, params):
+    gb = blocks(shape)
+    np.testing.assert_array_equal(np.asarray(K.lines(gb, **params)), kernel_lines(gb, **params))
+
+
+@pytest.mark.parametrize("shape", SIZES)
+@pytest.mark.parametrize("params", CASES)
+def test02_chain_matches_the_references(shape, params):
+    gb = blocks(shape)
+    # 1e-5: eq. 5.1 multiplies float32 rounding of the normalised depth by c = 40.
+    np.testing.assert_allclose(
+        np.asarray(K.lines(gb, **params)), ref_lines(gb, **params), atol=1e-5
+    )
+
+
+@pytest.mark.parametrize("shape", SIZES)
+def test03_no_edges_no_lines(shape):
+    for Z in (np.full(shape, 3.0), np.full(shape, np.inf)):
+        gb = {L.Z: Z, L.OBJECT_ID: np.ones(shape, np.uint32)}
+        assert not np.asarray(K.lines(gb, id_edges=True)).any()
+
+
+def test04_accepts_a_gbuffer_and_nan_never_spreads():
+    gb = blocks((32, 24))
+    gb[L.Z][3, 4] = np.nan
+    gbuf = mi_npr.GBuffer(gb)
+    out = np.asarray(K.lines(gbuf, id_edges=True, normal_edges=30.0))
+    assert out.shape == (32, 24) and np.all(np.isfinite(out))
+    np.testing.assert_allclose(out, ref_lines(gb, id_edges=True, normal_edges=30.0), atol=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ({"c": -1.0}, "lines: parameter 'c' = -1.0: must be a finite number >= 0"),
+        ({"t": float("nan")}, "parameter 't' = nan"),
+        ({"t0": 1.5}, "parameter 't0' = 1.5: must lie in [0, 1]"),
+        ({"dilation_size": 4}, "parameter 'dilation_size' = 4: must be an odd integer >= 3"),
+        ({"dilation_size": 1}, "parameter 'dilation_size' = 1"),
+        ({"dilation_iterations": -2}, "parameter 'dilation_iterations' = -2"),
+        ({"normal_edges": -5.0}, "parameter 'normal_edges' = -5.0: must lie in [0, 180)"),
+        ({"near": 5.0, "far": 1.0}, "lines: near = 5.0, far = 1.0: near must be less than far"),
+        ({"cc": 1.0}, "lines: unknown parameter 'cc'"),
+        ({"remove_isolated": "maybe"}, "parameter 'remove_isolated' = 'maybe'"),
+    ],
+)
+def test05_bad_parameters_name_the_parameter(params, message):
+    with pytest.raises(mi_npr.ParameterError) as e:
+        K.lines(blocks((4, 5)), **params)
+    assert message in str(e.value)
+
+
+def test06_missing_or_mismatched_layers():
+    with pytest.raises(mi_npr.ParameterError, match="no 'Z' layer"):
+        K.lines({L.OBJECT_ID: np.zeros((3, 3), np.uint32)})
+    z_only = {L.Z: np.ones((3, 3))}
+    assert K.lines(z_only).shape == (3, 3)  # depth alone is enough by default
+    with pytest.raises(mi_npr.ParameterError, match="no 'object_id' layer"):
+        K.lines(z_only, id_edges=True)
+    with pytest.raises(mi_npr.ParameterError, match=r"no 'N\.X' layer"):
+        K.lines({**z_only, L.OBJECT_ID: np.zeros((3, 3), np.uint32)}, normal_edges=20.0)
+    with pytest.raises(mi_npr.ParameterError, match="object_id: shape"):
+        K.lines({L.Z: np.ones((3, 4)), L.OBJECT_ID: np.zeros((4, 3), np.uint32)}, id_edges=True)

@@ -1,0 +1,147 @@
+"""The npr_lines plugin as Mitsuba sees it: mi.render's layout, compositing, XML parameters."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mi_npr
+from mi_npr import kernels as K
+from mi_npr import layers as L
+from mi_npr.compose import over
+
+mi = mi_npr.mi
+
+BALL = (
+    '<shape type="sphere" id="ball"><point name="center" x="0" y="0" z="4"/>'
+    '<bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.6, 0.1"/></bsdf></shape>'
+    '<shape type="rectangle" id="wall"><transform name="to_world">'
+    '<scale value="30"/><translate z="20"/></transform></shape>'
+    '<emitter type="constant"/>'
+)
+
+
+def lines_integrator(*params: str, nested: str = '<integrator type="direct"/>') -> str:
+    return f'<integrator type="npr_lines">{"".join(params)}{nested}</integrator>'
+
+
+def test01_all_background_closed_form(write_scene):
+    gb = mi_npr.render(write_scene("", integrator=lines_integrator()))
+    assert not gb[L.LINES].any() and gb[L.LINES].dtype == np.float32
+    np.testing.assert_array_equal(gb.beauty, gb.stack(L.RAW_RGB))  # nothing drawn
+
+
+def test02_mi_render_returns_composited_beauty_lines_then_gbuffer(write_scene):
+    scene = mi_npr.load_scene(write_scene(BALL, integrator=lines_integrator(), spp=2))
+    integ = scene.integrator()
+    assert integ.aov_names() == [L.LINES, *L.GBUFFER_AOVS]
+    img = mi.render(scene, seed=2)
+    names = [*L.RGB, L.LINES, *L.GBUFFER_AOVS]
+    assert tuple(img.shape) == (24, 32, len(names))
+    gb = mi_npr.render(scene, seed=2)
+    a = np.asarray(img)
+    for i, name in enumerate(names):
+        np.testing.assert_array_equal(a[..., i], gb[name].astype(np.float32), err_msg=name)
+    ink = gb[L.LINES]
+    assert ink.max() == 1.0 and set(np.unique(gb.object_id[ink > 0])) == {1}  # on the ball
+    np.testing.assert_array_equal(ink, np.asarray(K.lines(gb)))  # the library's chain
+    # Black lines over the raw beauty, which stays in beauty.R/G/B.
+    np.testing.assert_allclose(gb.beauty, over(gb.stack(L.RAW_RGB), ink, (0, 0, 0)), atol=1e-6)
+    assert np.all(gb.beauty[ink == 1.0] == 0.0)
+    assert "mi_npr/lines" in gb.metadata and gb.metadata["mi_npr/integrator"] == "npr_lines"
+
+
+def test03_parameters_reach_the_chain(write_scene):
+    params = (
+        '<float name="c" value="10"/>',
+        '<float name="t" value="0.25"/>',
+        '<float name="t0" value="0.3"/>',
+        '<integer name="dilation_size" value="5"/>',
+        '<integer name="dilation_iterations" value="2"/>',
+        '<boolean name="remove_isolated" value="false"/>',
+        '<boolean name="id_edges" value="true"/>',
+        '<float name="normal_edges" value="25"/>',
+        '<rgb name="line_color" value="1, 0, 0"/>',
+        '<float name="near" value="1"/>',
+        '<float name="far" value="30"/>',
+    )
+    scene = mi_npr.load_scene(write_scene(BALL, integrator=lines_integrator(*params)))
+    gb = mi_npr.render(scene)
+    expected = K.lines(
+        gb,
+        c=10.0,
+        t=0.25,
+        t0=0.3,
+        dilation_size=5,
+        dilation_iterations=2,
+        remove_isolated=False,
+        id_edges=True,
+        normal_edges=25.0,
+        near=1.0,
+        far=30.0,
+    )
+    np.testing.assert_array_equal(gb[L.LINES], np.asarray(expected))
+    drawn = gb[L.LINES] == 1.0
+    assert np.all(gb["R"][drawn] == 1.0) and np.all(gb["G"][drawn] == 0.0)  # red lines
+    assert "line_color=(1.0, 0.0, 0.0)" in str(scene.integrator())
+
+
+def test04_defaults_are_the_chains_defaults():
+    integ = mi.load_dict({"type": "npr_lines"})
+    chain = [p.name for p in K.LINES_PARAMS]  # ... normal_edges, near, far
+    assert [p.name for p in integ.PARAMS] == [*chain[:-2], "line_color", *chain[-2:]]
+    defaults = {p.name: p.default for p in K.LINES_PARAMS}
+    assert {k: v for k, v in integ.params.items() if k != "line_color"} == defaults
+    assert integ.params["line_color"] == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("param", "message"),
+    [
+        ('<float name="c" value="-1"/>', "parameter 'c' = -1.0: must be a finite number >= 0"),
+        ('<float name="t" value="-0.1"/>', "parameter 't' = -0.1"),
+        ('<integer name="dilation_size" value="4"/>', "parameter 'dilation_size' = 4: must be"),
+        ('<integer name="dilation_size" value="1"/>', "parameter 'dilation_size' = 1: must be"),
+        ('<integer name="dilation_iterations" value="-1"/>', "'dilation_iterations' = -1"),
+        ('<float name="t0" value="1.5"/>', "parameter 't0' = 1.5: must lie in [0, 1]"),
+        ('<float name="t0" value="-0.5"/>', "parameter 't0' = -0.5"),
+        ('<float name="normal_edges" value="180"/>', "parameter 'normal_edges' = 180.0"),
+        ('<string name="line_color" value="blue"/>', "parameter 'line_color' = 'blue'"),
+        ('<rgb name="line_color" value="-1, 0, 0"/>', "'line_color' = [-1, 0, 0]: must be finite"),
+        ('<string name="remove_isolated" value="maybe"/>', "parameter 'remove_isolated'"),
+        ('<float name="tt" value="1"/>', "npr_lines: unknown parameter 'tt'"),
+    ],
+)
+def test05_bad_xml_parameters_are_one_line_errors(write_scene, param, message):
+    path = write_scene(BALL, integrator=lines_integrator(param))
+    with pytest.raises(mi_npr.SceneError) as e:
+        mi_npr.load_scene(path)
+    text = str(e.value)
+    assert message in text and "npr_lines" in text and str(path) in text
+    assert "\n" not in text and "Traceback" not in text
+
+
+def test06_near_not_below_far_is_an_error_when_loading(write_scene):
+    params = ('<float name="near" value="5"/>', '<float name="far" value="2"/>')
+    path = write_scene(BALL, integrator=lines_integrator(*params))
+    with pytest.raises(mi_npr.SceneError) as e:
+        mi_npr.load_scene(path)
+    assert "npr_lines: near = 5.0, far = 2.0: near must be less than far" in str(e.value)
+
+
+@pytest.mark.parametrize("name", ["scene1", "scene2", "scene3", "scene4"])
+def test07_paper_scenes_take_npr_lines(scenes, name):
+    gb = mi_npr.render(scenes / f"{name}.xml", width=64, height=48, spp=1, integrator="npr_lines")
+    assert gb.metadata["mi_npr/integrator"] == "npr_lines"
+    ink = gb[L.LINES]
+    assert ink.any() and 0.0 <= ink.min() and ink.max() <= 1.0
+    assert L.RAW_RGB[0] in gb and gb.metadata["mi_npr/beauty"] == "PathIntegrator"
+
+
+def test08_scalar_variant(write_scene):
+    """Kernels run on LLVM whatever the variant; the plugin works in scalar_rgb too."""
+    path = write_scene(BALL, width=8, height=6, integrator=lines_integrator(nested=""))
+    llvm = mi_npr.render(path)
+    mi_npr.set_variant("scalar_rgb")
+    scalar = mi_npr.render(path)
+    np.testing.assert_array_equal(scalar[L.LINES], llvm[L.LINES])
