@@ -74,6 +74,38 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
 
+    c = sub.add_parser(
+        "contours", help="apparent contours in red over the beauty render: PNG, SVG and EXR"
+    )
+    c.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
+    c.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    c.add_argument(
+        "-D",
+        dest="defines",
+        action="append",
+        default=[],
+        type=_define,
+        metavar="NAME=VALUE",
+        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
+    )
+    c.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
+    c.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    # The same names as mi_npr.contours.METHODS / ID_MODES (not imported: parsing needs no LLVM).
+    c.add_argument(
+        "--method",
+        choices=("border", "code_direction"),
+        help="contour follower (default: the XML's npr_contours setting, else border)",
+    )
+    c.add_argument(
+        "--id-mode",
+        choices=("shape", "primitive", "component"),
+        help="what one object is (default: the XML's npr_contours setting, else shape)",
+    )
+    c.add_argument(
+        "--no-beauty-in-svg", action="store_true", help="do not embed the beauty in the SVG"
+    )
+    c.add_argument("--no-progress", action="store_true", help="no progress bar")
+
     i = sub.add_parser("info", help="list the layers, object table and camera of an EXR")
     i.add_argument("file", metavar="FILE.exr")
     i.add_argument("--json", action="store_true", help="print JSON")
@@ -99,6 +131,29 @@ def _cmd_render(args: argparse.Namespace) -> int:
     def job(scene: str) -> list[Path]:
         gb = mi_npr.render(scene, seed=args.seed, **options)
         return mi_npr.io.write_outputs(gb, outdir, Path(scene).stem)
+
+    results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
+    return _report(results)
+
+
+def _cmd_contours(args: argparse.Namespace) -> int:
+    import mi_npr
+
+    from .batch import check_unique_stems, run_jobs
+
+    check_unique_stems(args.scenes)
+    outdir = mi_npr.io.check_writable_dir(args.output, create=True)
+    options = dict(args.defines)
+    if args.spp is not None:
+        options["spp"] = args.spp
+
+    def job(scene: str) -> list[Path]:
+        gb, contours = mi_npr.contours.render_contours(
+            scene, seed=args.seed, method=args.method, id_mode=args.id_mode, **options
+        )
+        return mi_npr.io.write_contour_outputs(
+            gb, contours, outdir, Path(scene).stem, beauty_in_svg=not args.no_beauty_in_svg
+        )
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
     return _report(results)
@@ -146,7 +201,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"render": _cmd_render, "info": _cmd_info}
+COMMANDS = {"render": _cmd_render, "info": _cmd_info, "contours": _cmd_contours}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
