@@ -133,7 +133,9 @@ def _spheres(rng, n, w, h):
         "sensor": {
             "type": "perspective",
             "fov": 40,
-            "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0]),
+            "to_world": mi.ScalarTransform4f().look_at(
+                origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0]
+            ),
             "film": {"type": "hdrfilm", "width": w, "height": h},
         },
     }
@@ -141,7 +143,11 @@ def _spheres(rng, n, w, h):
         small = rng.random() < 0.5
         d[f"s{i:02d}"] = {
             "type": "sphere",
-            "center": [float(rng.uniform(-2, 2)), float(rng.uniform(-1.5, 1.5)), float(rng.uniform(4, 8))],
+            "center": [
+                float(rng.uniform(-2, 2)),
+                float(rng.uniform(-1.5, 1.5)),
+                float(rng.uniform(4, 8)),
+            ],
             "radius": float(rng.uniform(0.01, 0.08) if small else rng.uniform(0.05, 0.6)),
         }
     return mi.load_dict(d, optimize=False)

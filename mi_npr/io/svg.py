@@ -126,7 +126,7 @@ def svg_document(
         name, paths = groups[k]
         gid = xml_id(name, taken, str(k))
         out.append(
-            f"  <g id={quoteattr(gid)} data-object-id=\"{k}\" data-name={quoteattr(name)} "
+            f'  <g id={quoteattr(gid)} data-object-id="{k}" data-name={quoteattr(name)} '
             'fill-rule="evenodd">'
         )
         out.extend(paths)
