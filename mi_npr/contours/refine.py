@@ -57,7 +57,7 @@ from ..render import _LOCK, pixel_rays
 from ..scene import camera_of, load_scene, sensor_of
 from .contour import Contour
 from .idmode import IdMap, check_id_mode, id_map
-from .trace import OUTSIDE, Grid, check_method, contours_from_grid
+from .trace import OUTSIDE, Grid, check_method, contours_from_grid, distinct
 
 MACRO = 8
 
@@ -108,8 +108,8 @@ class Caster:
         """Compute the unknown pixels among flat padded indices ``idx``; returns those computed."""
         g = self.grid
         assert g.known is not None
-        idx = np.unique(np.asarray(idx, np.int64))
-        idx = idx[~g.known[idx]]
+        idx = np.asarray(idx, np.int64).reshape(-1)
+        idx = distinct(idx[~g.known[idx]])
         if len(idx) == 0:
             return idx
         g.ids[idx] = self.compute(idx % g.stride - 1, idx // g.stride - 1)
@@ -182,7 +182,7 @@ class RayCaster(Caster):
 
 
 def _grid_points(n: int, step: int) -> np.ndarray:
-    return np.unique(np.r_[np.arange(0, n, step), n - 1])
+    return distinct(np.r_[np.arange(0, n, step), n - 1])
 
 
 def refine(caster: Caster, macro: int = MACRO) -> np.ndarray:
