@@ -48,6 +48,24 @@ def _positive(text: str) -> int:
     return n
 
 
+def _scene_arguments(p: argparse.ArgumentParser) -> None:
+    """The arguments of every command that renders scenes: inputs, output, defines, spp, seed."""
+    p.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
+    p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    p.add_argument(
+        "-D",
+        dest="defines",
+        action="append",
+        default=[],
+        type=_define,
+        metavar="NAME=VALUE",
+        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
+    )
+    p.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
+    p.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
@@ -59,37 +77,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     r = sub.add_parser("render", help="render scenes to multi-layer EXR + PNG")
-    r.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
-    r.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
-    r.add_argument(
-        "-D",
-        dest="defines",
-        action="append",
-        default=[],
-        type=_define,
-        metavar="NAME=VALUE",
-        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
-    )
-    r.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
-    r.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
-    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _scene_arguments(r)
 
     c = sub.add_parser(
         "contours", help="apparent contours in red over the beauty render: PNG, SVG and EXR"
     )
-    c.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
-    c.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
-    c.add_argument(
-        "-D",
-        dest="defines",
-        action="append",
-        default=[],
-        type=_define,
-        metavar="NAME=VALUE",
-        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
-    )
-    c.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
-    c.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    _scene_arguments(c)
     # The same names as mi_npr.contours.METHODS / ID_MODES (not imported: parsing needs no LLVM).
     c.add_argument(
         "--method",
@@ -104,7 +97,6 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument(
         "--no-beauty-in-svg", action="store_true", help="do not embed the beauty in the SVG"
     )
-    c.add_argument("--no-progress", action="store_true", help="no progress bar")
 
     i = sub.add_parser("info", help="list the layers, object table and camera of an EXR")
     i.add_argument("file", metavar="FILE.exr")

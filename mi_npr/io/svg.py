@@ -27,6 +27,7 @@ import os
 import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -141,26 +142,11 @@ def _text(s: str) -> str:
 
 
 def write_svg(
-    path: str | os.PathLike[str],
-    contours: Iterable,
-    width: int,
-    height: int,
-    *,
-    beauty: np.ndarray | None = None,
-    color: Sequence[float] = (1.0, 0.0, 0.0),
-    stroke_width: float = 1.0,
-    title: str | None = None,
+    path: str | os.PathLike[str], contours: Iterable, width: int, height: int, **options: Any
 ) -> Path:
-    """Write :func:`svg_document` to ``path`` (atomically). Returns the path."""
-    text = svg_document(
-        contours,
-        width,
-        height,
-        beauty=beauty,
-        color=color,
-        stroke_width=stroke_width,
-        title=title,
-    )
+    """Write :func:`svg_document` (same arguments and keyword ``options``) to ``path``
+    (atomically). Returns the path."""
+    text = svg_document(contours, width, height, **options)
     target = Path(path)
     with atomic_output(target) as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
