@@ -32,8 +32,10 @@ edges: an object, what it occludes and what occludes it) include a crack between
 Left out are only pieces that lie, with everything touching them, strictly between the rays of
 step 1 and are not guarded by step 2: a thin object crossing the image diagonally, a hole smaller
 than a macro pixel in a large object, a sliver of a large object visible through such a hole.
-The tests check the scenes in ``scenes_xml/`` and random small-sphere scenes for equality with
-buffer mode; the notebook measures how many rays that takes.
+Measured on 40 random scenes of 12 spheres (half of them 1-10 pixels wide) at 160x120: without
+the guard, 150 of 410 contours were missed (every one a whole small sphere) with 9.9% of the rays
+cast; with it, none, with 12.3%. The tests check the scenes in ``scenes_xml/`` (every ``id_mode``)
+and random sphere scenes for equality with buffer mode; the notebook counts the rays.
 
 Every ray is the pixel-centre ray of the G-buffer pass (:func:`mi_npr.render.pixel_rays`, same
 intersection, same :meth:`~mi_npr.scene.ObjectTable.lookup`), so the ids equal the ``object_id``

@@ -70,8 +70,6 @@ METHODS = ("border", "code_direction")
 #: Pixel id of the one-pixel ring around the image (never an object id: ids are < 2**32 - 1).
 OUTSIDE = np.uint32(0xFFFFFFFF)
 
-# Crack sides d = 0..3: +x, +y, -x, -y, as (dx, dy).
-_D4 = ((1, 0), (0, 1), (-1, 0), (0, -1))
 # Corner coordinates (pixel (x, y) spans [x, x+1] x [y, y+1]) of each crack's edge, start -> end,
 # in the direction of travel: they give the signed area that tells outer borders from holes.
 _EDGE = np.array(
@@ -115,10 +113,12 @@ class Grid:
         return cls(height, width, p.reshape(-1), known.reshape(-1))
 
     def offsets4(self) -> np.ndarray:
+        """Flat offsets of the crack sides d = 0..3: +x, +y, -x, -y."""
         s = self.stride
         return np.array([1, s, -1, -s], dtype=np.int64)
 
     def offsets8(self) -> list[int]:
+        """Flat offsets of the paper's Fig. 8 neighbours 0..7."""
         s = self.stride
         return [dx + dy * s for dx, dy in FIG8]
 
@@ -130,9 +130,6 @@ class Grid:
         """(N, 2) int32 pixel positions (x, y) of flat padded indices."""
         idx = np.asarray(idx, np.int64)
         return np.stack([idx % self.stride - 1, idx // self.stride - 1], axis=-1).astype(np.int32)
-
-    def inner(self) -> np.ndarray:
-        return self.ids.reshape(self.height + 2, self.stride)[1:-1, 1:-1]
 
 
 def distinct(a: np.ndarray) -> np.ndarray:
@@ -301,7 +298,7 @@ def code_direction_walk(
     have yet (the caller computes them, updates ``ids``/``known`` in place and resumes it); it
     returns ``(chain of flat indices, closed)``. With ``known=None`` it never yields.
     """
-    ring = [dx + dy * stride for dx, dy in FIG8]
+    ring = [dx + dy * stride for dx, dy in FIG8]  # Grid.offsets8
     k = ids[start]
     chain = [start]
     colored = {start}
