@@ -48,6 +48,24 @@ def _positive(text: str) -> int:
     return n
 
 
+def _scene_arguments(p: argparse.ArgumentParser) -> None:
+    """The arguments of every command that renders scenes: inputs, output, defines, spp, seed."""
+    p.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
+    p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    p.add_argument(
+        "-D",
+        dest="defines",
+        action="append",
+        default=[],
+        type=_define,
+        metavar="NAME=VALUE",
+        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
+    )
+    p.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
+    p.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
@@ -59,20 +77,26 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     r = sub.add_parser("render", help="render scenes to multi-layer EXR + PNG")
-    r.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
-    r.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
-    r.add_argument(
-        "-D",
-        dest="defines",
-        action="append",
-        default=[],
-        type=_define,
-        metavar="NAME=VALUE",
-        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
+    _scene_arguments(r)
+
+    c = sub.add_parser(
+        "contours", help="apparent contours in red over the beauty render: PNG, SVG and EXR"
     )
-    r.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
-    r.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
-    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _scene_arguments(c)
+    # The same names as mi_npr.contours.METHODS / ID_MODES (not imported: parsing needs no LLVM).
+    c.add_argument(
+        "--method",
+        choices=("border", "code_direction"),
+        help="contour follower (default: the XML's npr_contours setting, else border)",
+    )
+    c.add_argument(
+        "--id-mode",
+        choices=("shape", "primitive", "component"),
+        help="what one object is (default: the XML's npr_contours setting, else shape)",
+    )
+    c.add_argument(
+        "--no-beauty-in-svg", action="store_true", help="do not embed the beauty in the SVG"
+    )
 
     i = sub.add_parser("info", help="list the layers, object table and camera of an EXR")
     i.add_argument("file", metavar="FILE.exr")
@@ -99,6 +123,29 @@ def _cmd_render(args: argparse.Namespace) -> int:
     def job(scene: str) -> list[Path]:
         gb = mi_npr.render(scene, seed=args.seed, **options)
         return mi_npr.io.write_outputs(gb, outdir, Path(scene).stem)
+
+    results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
+    return _report(results)
+
+
+def _cmd_contours(args: argparse.Namespace) -> int:
+    import mi_npr
+
+    from .batch import check_unique_stems, run_jobs
+
+    check_unique_stems(args.scenes)
+    outdir = mi_npr.io.check_writable_dir(args.output, create=True)
+    options = dict(args.defines)
+    if args.spp is not None:
+        options["spp"] = args.spp
+
+    def job(scene: str) -> list[Path]:
+        gb, contours = mi_npr.contours.render_contours(
+            scene, seed=args.seed, method=args.method, id_mode=args.id_mode, **options
+        )
+        return mi_npr.io.write_contour_outputs(
+            gb, contours, outdir, Path(scene).stem, beauty_in_svg=not args.no_beauty_in_svg
+        )
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
     return _report(results)
@@ -146,7 +193,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"render": _cmd_render, "info": _cmd_info}
+COMMANDS = {"render": _cmd_render, "info": _cmd_info, "contours": _cmd_contours}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -9,6 +9,7 @@ from ..gbuffer import GBuffer
 from ._atomic import atomic_output, check_writable_dir
 from .exr import describe, read_exr, write_exr
 from .png import linear_to_srgb, to_rgb8, write_png
+from .svg import svg_document, write_contour_outputs, write_svg
 
 
 def write_outputs(gb: GBuffer, outdir: str | os.PathLike[str], stem: str) -> list[Path]:
@@ -23,8 +24,11 @@ __all__ = [
     "describe",
     "linear_to_srgb",
     "read_exr",
+    "svg_document",
     "to_rgb8",
+    "write_contour_outputs",
     "write_exr",
     "write_outputs",
     "write_png",
+    "write_svg",
 ]

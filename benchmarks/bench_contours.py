@@ -1,0 +1,208 @@
+"""Apparent contours at 640x480 on scenes 1-4: buffer mode against OpenCV, ray-cast mode against a
+full ID buffer, cold and warm, in the same run.
+
+Buffer mode: ``mi_npr.contours.trace(ids)`` on the G-buffer's ``object_id`` (every contour of
+every object), against ``cv2.findContours`` (``RETR_LIST``, ``CHAIN_APPROX_NONE``) on each
+object's zero-padded mask, timed twice: masks prepared beforehand (``cv2``) and masks built in the
+timed call (``cv2_masks``, what a user of OpenCV pays). Also the paper's walk
+(``trace_code_direction``). The paper's Table 1 took 100-311 ms per scene; the target is 5 ms.
+
+Ray-cast mode: ``mi_npr.contours.trace_scene(scene)`` (refinement, guard, following, tracing),
+against the anchor ``id_buffer``: the full pixel-centre ID pass (one ray per pixel, the same
+intersection and id lookup), which is what buffer mode needs first. ``rays_cast / (W*H)`` is
+reported (target <= 20%).
+
+warm: median of ``--repeat`` runs after one warm-up, in this process.
+cold: the first run in a fresh process with an empty Dr.Jit kernel cache (compilation included).
+
+    python benchmarks/bench_contours.py [--quick] [--repeat N] [--out benchmarks/results]
+
+Prints a table with the ratios ours / anchor (< 1 means faster) and writes JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+SCENES = ["scene1", "scene2", "scene3", "scene4"]
+SIZE = (640, 480)
+CASES = ["trace", "trace_code_direction", "cv2", "cv2_masks", "trace_scene", "id_buffer"]
+
+
+def _scene(name: str, w: int, h: int):
+    import mi_npr
+
+    return mi_npr.load_scene(HERE.parent / "scenes_xml" / f"{name}.xml", width=w, height=h, spp=1)
+
+
+def _setup(case: str, name: str, w: int, h: int):
+    """A zero-argument function that runs the case once (and waits for its result)."""
+    import numpy as np
+
+    import mi_npr
+
+    mi, dr = mi_npr.mi, mi_npr.dr
+    scene = _scene(name, w, h)
+    if case == "trace_scene":
+        return lambda: mi_npr.contours.trace_scene(scene)
+    if case == "id_buffer":
+        from mi_npr.render import pixel_rays
+
+        sensor, table = scene.sensors()[0], mi_npr.object_table(scene)
+
+        def full():
+            idx = dr.arange(mi.UInt32, w * h)
+            ray = pixel_rays(sensor, mi.Float(idx % w) + 0.5, mi.Float(idx // w) + 0.5)
+            ids = table.lookup(scene.ray_intersect_preliminary(ray, coherent=True))
+            return ids.numpy()
+
+        return full
+    ids = mi_npr.render_gbuffer(scene)["object_id"].copy()
+    if case == "trace":
+        return lambda: mi_npr.contours.trace(ids)
+    if case == "trace_code_direction":
+        return lambda: mi_npr.contours.trace(ids, method="code_direction")
+    import cv2
+
+    objects = [k for k in np.unique(ids) if k != 0]
+    if case == "cv2":
+        masks = [np.pad((ids == k).astype(np.uint8), 1) for k in objects]
+        return lambda: [cv2.findContours(m, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE) for m in masks]
+    return lambda: [
+        cv2.findContours(
+            np.pad((ids == k).astype(np.uint8), 1), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE
+        )
+        for k in objects
+    ]
+
+
+def _cold_child(case: str, name: str, w: int, h: int) -> None:
+    fn = _setup(case, name, w, h)
+    t0 = time.perf_counter()
+    fn()
+    print(json.dumps({"cold_ms": (time.perf_counter() - t0) * 1e3}))
+
+
+def measure_cold(case: str, name: str, w: int, h: int) -> float:
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, DRJIT_CACHE_DIR=cache)
+        out = subprocess.run(
+            [sys.executable, __file__, "--cold-child", case, name, str(w), str(h)],
+            capture_output=True,
+            text=True,
+            env=env,
+            check=True,
+        )
+    return json.loads(out.stdout.strip().splitlines()[-1])["cold_ms"]
+
+
+def measure_warm(fn, repeat: int) -> float:
+    fn()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append((time.perf_counter() - t0) * 1e3)
+    return statistics.median(times)
+
+
+def ray_details(name: str, w: int, h: int, repeat: int) -> dict:
+    """Rays cast, contours and the warm per-stage times of ray-cast mode."""
+    import mi_npr
+
+    scene = _scene(name, w, h)
+    mi_npr.contours.trace_scene(scene)
+    runs = [mi_npr.contours.trace_scene(scene)[1] for _ in range(repeat)]
+    s = runs[0]
+    stages = {k: statistics.median(r.times[k] for r in runs) * 1e3 for k in s.times}
+    return {
+        "rays_cast": s.rays_cast,
+        "ray_fraction": s.ray_fraction,
+        "launches": s.launches,
+        "rounds": s.rounds,
+        "guarded_pixels": s.guarded_pixels,
+        "contours": s.contours,
+        "stage_ms": stages,
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=15)
+    ap.add_argument("--quick", action="store_true", help="5 repeats, no cold runs")
+    ap.add_argument("--out", type=Path, default=HERE / "results")
+    ap.add_argument("--cold-child", nargs=4, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.cold_child:
+        c, n, w, h = args.cold_child
+        _cold_child(c, n, int(w), int(h))
+        return 0
+    import mi_npr
+
+    w, h = SIZE
+    repeat = 5 if args.quick else args.repeat
+    rows = []
+    for name in SCENES:
+        res: dict = {"scene": name, "width": w, "height": h}
+        for case in CASES:
+            res[case] = {"warm_ms": measure_warm(_setup(case, name, w, h), repeat)}
+            if not args.quick:
+                res[case]["cold_ms"] = measure_cold(case, name, w, h)
+        res["rays"] = ray_details(name, w, h, repeat)
+        modes = ["warm_ms"] if args.quick else ["warm_ms", "cold_ms"]
+        for ours, anchor in (
+            ("trace", "cv2"),
+            ("trace", "cv2_masks"),
+            ("trace_scene", "id_buffer"),
+        ):
+            for mode in modes:
+                res[f"ratio_{mode[:4]}_{ours}_vs_{anchor}"] = res[ours][mode] / res[anchor][mode]
+        rows.append(res)
+        print(f"\n{name} {w}x{h} (ms; ratio = ours / anchor, < 1 is faster)")
+        print(f"  {'case':<22}{'warm':>10}{'cold':>10}")
+        for case in CASES:
+            cold = res[case].get("cold_ms", float("nan"))
+            print(f"  {case:<22}{res[case]['warm_ms']:>10.2f}{cold:>10.1f}")
+        for key in [k for k in res if k.startswith("ratio_")]:
+            print(f"  {key:<38}{res[key]:>8.2f}")
+        r = res["rays"]
+        print(
+            f"  rays cast {r['rays_cast']} = {100 * r['ray_fraction']:.1f}% of W*H, "
+            f"{r['launches']} batches, {r['contours']} contours; stages (ms) "
+            + ", ".join(f"{k} {v:.1f}" for k, v in r["stage_ms"].items())
+        )
+    report = {
+        "benchmark": "bench_contours",
+        "scenes": [f"scenes_xml/{n}.xml" for n in SCENES],
+        "date": time.strftime("%Y-%m-%dT%H:%M:%S"),
+        "machine": {
+            "cpu_count": os.cpu_count(),
+            "platform": platform.platform(),
+            "python": platform.python_version(),
+        },
+        "mi_npr": mi_npr.__version__,
+        "variant": mi_npr.mi.variant(),
+        "llvm": mi_npr.LLVM.chosen.describe() if mi_npr.LLVM and mi_npr.LLVM.chosen else None,
+        "repeat": repeat,
+        "targets": {"trace_warm_ms": 5.0, "ray_fraction": 0.2},
+        "results": rows,
+    }
+    args.out.mkdir(parents=True, exist_ok=True)
+    path = args.out / "bench_contours.json"
+    path.write_text(json.dumps(report, indent=2))
+    print(f"\nwrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
