@@ -17,6 +17,7 @@ else:
     register_plugins()
 
 from . import io  # noqa: E402
+from . import raytree  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -36,6 +37,7 @@ __all__ = [
     "load_scene",
     "mi",
     "object_table",
+    "raytree",
     "render",
     "render_gbuffer",
     "set_variant",

@@ -74,6 +74,31 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
 
+    t = sub.add_parser(
+        "raytree",
+        help="ray-tree signatures and classified edges (real/reflection/refraction/shadow)",
+    )
+    t.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
+    t.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    t.add_argument(
+        "--max-depth",
+        type=_positive,
+        metavar="N",
+        help="levels of the ray trees (default: the scene's npr_raytree max_depth, else 3)",
+    )
+    t.add_argument(
+        "-D",
+        dest="defines",
+        action="append",
+        default=[],
+        type=_define,
+        metavar="NAME=VALUE",
+        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
+    )
+    t.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
+    t.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    t.add_argument("--no-progress", action="store_true", help="no progress bar")
+
     i = sub.add_parser("info", help="list the layers, object table and camera of an EXR")
     i.add_argument("file", metavar="FILE.exr")
     i.add_argument("--json", action="store_true", help="print JSON")
@@ -99,6 +124,29 @@ def _cmd_render(args: argparse.Namespace) -> int:
     def job(scene: str) -> list[Path]:
         gb = mi_npr.render(scene, seed=args.seed, **options)
         return mi_npr.io.write_outputs(gb, outdir, Path(scene).stem)
+
+    results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
+    return _report(results)
+
+
+def _cmd_raytree(args: argparse.Namespace) -> int:
+    import mi_npr
+
+    from .batch import check_unique_stems, run_jobs
+
+    check_unique_stems(args.scenes)
+    outdir = mi_npr.io.check_writable_dir(args.output, create=True)
+    options = dict(args.defines)
+    if args.spp is not None:
+        options["spp"] = args.spp
+
+    def job(scene: str) -> list[Path]:
+        gb = mi_npr.raytree.render(scene, max_depth=args.max_depth, seed=args.seed, **options)
+        stem = Path(scene).stem
+        return [
+            mi_npr.io.write_exr(outdir / f"{stem}.exr", gb),
+            mi_npr.io.write_png(outdir / f"{stem}_raytree.png", gb.beauty),
+        ]
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
     return _report(results)
@@ -146,7 +194,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"render": _cmd_render, "info": _cmd_info}
+COMMANDS = {"render": _cmd_render, "info": _cmd_info, "raytree": _cmd_raytree}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
