@@ -16,8 +16,7 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import io  # noqa: E402
-from . import raytree  # noqa: E402
+from . import io, raytree  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 

@@ -139,7 +139,10 @@ def test05_mix64_and_node_keys_match_the_reference():
     obj = rng.integers(0, 300, 50).astype(np.uint32)
     w = rng.integers(0, 2**32, (50, 2), dtype=np.uint64).astype(np.uint32)
     keys = node_key(mi.UInt32(pos), mi.UInt32(obj), [mi.UInt32(w[:, 0]), mi.UInt32(w[:, 1])])
-    ref = [node_key_ref(int(p), int(o), [int(a), int(b)]) for p, o, (a, b) in zip(pos, obj, w)]
+    ref = [
+        node_key_ref(int(p), int(o), [int(a), int(b)])
+        for p, o, (a, b) in zip(pos, obj, w, strict=True)
+    ]
     assert [int(k) for k in keys.numpy()] == ref
     assert dr.width(keys) == 50
 

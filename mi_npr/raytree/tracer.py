@@ -2,15 +2,15 @@
 Gattass's ray-path categories).
 
 The tree of a ray (Fig. 5 of the paper): its root is the object the ray hits, with the lights
-visible from the hit point (:mod:`mi_npr.raytree.lights`); a surface whose BSDF has a delta
+visible from the hit point (:mod:`mi_npr.raytree.lights`). A surface whose BSDF has a delta
 reflection lobe (mirror, smooth conductor, smooth plastic's coating, glass) has a *reflection*
-child, one with a delta transmission lobe (glass) or a ``Null`` one (the straight-through
-transmission of thin glass, ``thindielectric``, and of the ``null`` BSDF) a *refraction* child,
-each the tree of the specular ray it spawns. Rough and diffuse surfaces end the branch. Each child direction comes
-from ``bsdf.sample`` with a :class:`mitsuba.BSDFContext` that enables only that lobe
-(``DeltaReflection``, or ``DeltaTransmission | Null``), so nothing is chosen at random; a lobe whose
-weight is zero there (total internal reflection, a one-sided mirror seen from behind) gives no
-child. A ray that hits nothing adds no node.
+child; one with a delta transmission lobe (glass) or a ``Null`` one (the straight-through
+transmission of thin glass, ``thindielectric``, and of the ``null`` BSDF) has a *refraction*
+child; each child is the tree of the specular ray it spawns. Rough and diffuse surfaces end the
+branch. A child's direction comes from ``bsdf.sample`` with a :class:`mitsuba.BSDFContext` that
+enables only that lobe (``DeltaReflection``, or ``DeltaTransmission | Null``), so nothing is
+chosen at random; a lobe whose weight is zero there (total internal reflection, a one-sided
+mirror seen from behind) gives no child. A ray that hits nothing adds no node.
 
 Node positions (what the paper's "numbering of the node positions" is taken to mean, consistent
 with its strings ``4A2BL1C`` and ``7A3BL1``): heap numbering, the root is 1, the reflection child
