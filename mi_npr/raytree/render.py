@@ -19,8 +19,8 @@ from .. import layers as L
 from ..compose import with_overlays
 from ..errors import ParameterError, SceneError, one_line
 from ..gbuffer import GBuffer
-from ..render import _LOCK, pixel_rays, render_gbuffer
-from ..scene import declared_defaults, load_scene, object_table, sensor_of
+from ..render import _LOCK, pixel_rays, prepare, render_gbuffer
+from ..scene import object_table, sensor_of
 from .edges import as_image, classify_edges
 from .lights import light_table
 from .tracer import Trees, check_max_depth, trace_trees
@@ -116,7 +116,7 @@ def render(
     *,
     max_depth: int | None = None,
     sensor: int = 0,
-    spp: int | None = None,
+    spp: int | str | None = None,
     seed: int = 0,
     **defines: Any,
 ) -> GBuffer:
@@ -126,10 +126,7 @@ def render(
     ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3. ``defines`` fill
     the XML's ``<default>``s, as in :func:`mi_npr.render`.
     """
-    source = os.fspath(scene) if isinstance(scene, (str, os.PathLike)) else None
-    if spp is not None and source is not None and "spp" in declared_defaults(source):
-        defines["spp"] = spp
-    loaded = load_scene(scene, **defines)
+    loaded, spp, source = prepare(scene, spp, defines)
     integ = loaded.integrator()
     is_npr = hasattr(integ, "npr_gbuffer")
     max_depth = check_max_depth(scene_max_depth(loaded) if max_depth is None else max_depth)
