@@ -131,30 +131,43 @@ class Trees:
         return mi.UInt32(self.hash >> 32), mi.UInt32(self.hash & 0xFFFFFFFF)
 
 
+def specular_lobes(objects: ObjectTable) -> list[int]:
+    """Per object id (0 = nothing hit), the flags of its BSDF's lobes that spawn children."""
+    out = [0] * (len(objects) + 1)
+    for k, shape in objects.shapes.items():
+        bsdf = shape.bsdf()
+        flags = int(bsdf.flags()) if bsdf is not None else 0
+        out[k] = flags & (REFLECTION_LOBES | REFRACTION_LOBES)
+    return out
+
+
 def _level(
     scene: mi.Scene,
     ray: mi.Ray3f,
     pos: Any,
     objects: ObjectTable,
     lights: LightTable,
-    children: bool,
+    lobes: Any,
     coherent: bool,
 ) -> tuple[Any, ...]:
-    """One wavefront level: hits, node keys, and the children's rays (if ``children``)."""
+    """One wavefront level: hits, node keys, and the children's rays (unless ``lobes`` is
+    ``None``: the last level)."""
     si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=coherent)
     valid = si.is_valid()
     obj = objects.lookup(si)
     words = visible_lights(scene, si, ray.d, obj, lights, objects, valid)
     key = dr.select(valid, node_key(pos, obj, words), mi.UInt64(0))
-    if not children:
+    if lobes is None:
         return valid, obj, words, key, None
+    has = dr.gather(mi.UInt32, lobes, obj, valid)
     bsdf = si.bsdf(mi.RayDifferential3f(ray))
     kids = []
     for lobe in (REFLECTION_LOBES, REFRACTION_LOBES):
         ctx = mi.BSDFContext()
         ctx.type_mask = lobe
-        bs, w = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5), valid)
-        ok = valid & (bs.pdf > 0) & (dr.max(mi.unpolarized_spectrum(w)) > 0)
+        active = valid & ((has & lobe) != 0)  # only specular hits pay for the BSDF call
+        bs, w = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5), active)
+        ok = active & (bs.pdf > 0) & (dr.max(mi.unpolarized_spectrum(w)) > 0)
         ok &= (bs.sampled_type & lobe) != 0
         kids.append((ok, si.spawn_ray(si.to_world(bs.wo))))
     return valid, obj, words, key, kids
@@ -201,19 +214,27 @@ def trace_trees(
     root_obj: Any = None
     root_lights: tuple[Any, ...] = ()
     rec: list[tuple[Any, ...]] = []
-    for depth in range(max_depth):
-        last = depth == max_depth - 1
+    lut = specular_lobes(objects)
+    levels_traced = max_depth if any(lut) else 1  # else nothing in the scene spawns children
+    lobes = mi.UInt32(lut)
+    for depth in range(levels_traced):
+        last = depth == levels_traced - 1
         valid, obj, words, key, kids = _level(
-            scene, ray, pos, objects, lights, not last, coherent=depth == 0
+            scene, ray, pos, objects, lights, None if last else lobes, coherent=depth == 0
         )
+        # One kernel per level: the scatters and compress() below would otherwise each re-run
+        # the intersections and shadow rays.
+        dr.eval(valid, obj, words, key, kids)
         if depth == 0:
             root_obj, root_lights = obj, tuple(words)
             total = key
         else:
             refl, refr = dr.zeros(mi.UInt64, n), dr.zeros(mi.UInt64, n)
             odd = (pos & 1) == 1
-            dr.scatter_reduce(dr.ReduceOp.Add, refl, key, idx, valid & ~odd)
-            dr.scatter_reduce(dr.ReduceOp.Add, refr, key, idx, valid & odd)
+            # Few items hit few trees: plain atomics beat Dr.Jit's per-thread copies here.
+            direct = dr.ReduceMode.Direct
+            dr.scatter_reduce(dr.ReduceOp.Add, refl, key, idx, valid & ~odd, mode=direct)
+            dr.scatter_reduce(dr.ReduceOp.Add, refr, key, idx, valid & odd, mode=direct)
             total = total + refl + refr
             levels.append((refl, refr))
         if record:
@@ -221,8 +242,6 @@ def trace_trees(
         if last:
             break
         (ok_r, ray_r), (ok_t, ray_t) = kids
-        # Evaluate this level in one kernel; compress() below would otherwise re-run it per use.
-        dr.eval(total, root_obj, root_lights, levels, ok_r, ok_t, ray_r, ray_t, rec[-1:])
         m = dr.width(ok_r)
         j = dr.arange(mi.UInt32, 2 * m)  # item j: parent j // 2, child kind j % 2
         parent = j >> 1
