@@ -38,6 +38,22 @@ def gbuffer_panel() -> Path:
     return path
 
 
+def raytree_panel() -> Path:
+    scenes = ("scene1.xml", "raytree_mirror_glass.xml")
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.4))
+    for a, name in zip(ax, scenes, strict=True):
+        gb = mi_npr.raytree.render(ROOT / "scenes_xml" / name, width=400, height=300, spp=64)
+        a.imshow(mi_npr.io.to_rgb8(gb.beauty))
+        a.set_title(name)
+        a.axis("off")
+    fig.suptitle("ray-tree edges: real red, reflection blue, refraction green, shadow gray")
+    fig.tight_layout()
+    path = OUT / "raytree_edges.png"
+    fig.savefig(path, dpi=72)
+    return path
+
+
 if __name__ == "__main__":
     OUT.mkdir(parents=True, exist_ok=True)
     print(gbuffer_panel())
+    print(raytree_panel())

@@ -225,3 +225,11 @@ def test06_scene1_and_scene2_have_the_same_real_edges(scenes):
     assert not out["scene2"][L.EDGES_REFRACTION].any()
     total = sum(out["scene1"][k] for k in L.EDGES)
     assert total.max() == 1  # one class per pixel
+
+
+def test07_the_mirror_glass_scene_shows_every_class(scenes):
+    scene = mi_npr.load_scene(scenes / "raytree_mirror_glass.xml", width=80, height=60, spp=1)
+    assert scene.integrator().aov_names()[:2] == [L.RAYTREE_HI, L.RAYTREE_LO]
+    lay = raytree_layers(scene, 0, 3)
+    for name in L.EDGES:
+        assert lay[name].sum() > 5, name

@@ -16,7 +16,7 @@ from __future__ import annotations
 from .edges import classify_edges
 from .lights import LightTable, light_table
 from .render import COLORS, LAYERS, add_raytree, overlay, raytree_layers, render
-from .signature import format_signature, signature, signatures
+from .signature import format_signature, object_letters, signature, signatures
 from .tracer import MAX_DEPTH, Nodes, Trees, trace_trees
 
 __all__ = [
@@ -30,6 +30,7 @@ __all__ = [
     "classify_edges",
     "format_signature",
     "light_table",
+    "object_letters",
     "overlay",
     "raytree_layers",
     "render",
