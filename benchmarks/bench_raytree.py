@@ -21,16 +21,13 @@ Prints the times and the ratios npr_raytree / anchor (target: <= 3 warm), writes
 
 from __future__ import annotations
 
-import argparse
-import json
-import os
-import platform
 import statistics
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
+
+import _common
+from _common import aov_anchor
 
 HERE = Path(__file__).resolve().parent
 SCENE = HERE.parent / "scenes_xml" / "scene1.xml"
@@ -59,42 +56,7 @@ def _setup(case: str, w: int, h: int):
     if case in ("npr_raytree", "npr_gbuffer"):
         integ = mi.load_dict({"type": case, **({"max_depth": 3} if case == "npr_raytree" else {})})
         return timed(lambda: mi.render(scene, integrator=integ))
-    aov = mi.load_dict({"type": "aov", "aovs": "dd.y:depth,id:shape_index,nn:sh_normal"})
-    sensor = scene.sensors()[0]
-    if case == "aov_box":
-        import numpy as np
-
-        m = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4)
-        sensor = mi.load_dict(
-            {
-                "type": "perspective",
-                "fov": float(mi.traverse(sensor)["x_fov"][0]),
-                "to_world": mi.ScalarTransform4f(m),
-                "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": {"type": "box"}},
-                "sampler": {"type": "independent", "sample_count": 1},
-            }
-        )
-    return timed(lambda: mi.render(scene, sensor=sensor, integrator=aov, spp=1))
-
-
-def _cold_child(case: str, w: int, h: int) -> None:
-    fn = _setup(case, w, h)
-    t0 = time.perf_counter()
-    fn()
-    print(json.dumps({"cold_ms": (time.perf_counter() - t0) * 1e3}))
-
-
-def measure_cold(case: str, w: int, h: int) -> float:
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, DRJIT_CACHE_DIR=cache)
-        out = subprocess.run(
-            [sys.executable, __file__, "--cold-child", case, str(w), str(h)],
-            capture_output=True,
-            text=True,
-            env=env,
-            check=True,
-        )
-    return json.loads(out.stdout.strip().splitlines()[-1])["cold_ms"]
+    return aov_anchor(scene, w, h, box=case == "aov_box")
 
 
 def measure_warm(fns: dict, repeat: int) -> dict[str, float]:
@@ -111,16 +73,9 @@ def measure_warm(fns: dict, repeat: int) -> dict[str, float]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=15)
-    ap.add_argument("--quick", action="store_true", help="5 repeats, no cold runs")
-    ap.add_argument("--out", type=Path, default=HERE / "results")
-    ap.add_argument("--cold-child", nargs=3, help=argparse.SUPPRESS)
-    args = ap.parse_args()
-    if args.cold_child:
-        _cold_child(args.cold_child[0], int(args.cold_child[1]), int(args.cold_child[2]))
+    args = _common.parse_args(__doc__, _setup, "5 repeats, no cold runs")
+    if args is None:
         return 0
-    import mi_npr
 
     w, h = SIZE
     repeat = 5 if args.quick else args.repeat
@@ -129,7 +84,7 @@ def main() -> int:
     for case in CASES:
         res[case] = {
             "warm_ms": warm[case],
-            "cold_ms": None if args.quick else measure_cold(case, w, h),
+            "cold_ms": None if args.quick else _common.measure_cold(__file__, case, w, h),
         }
     print(f"\n{w}x{h}, scene1.xml, depth 3, 2 lights (ms; ratio = npr_raytree / anchor)")
     print(f"  {'case':<18}{'warm':>10}{'cold':>10}")
@@ -145,26 +100,15 @@ def main() -> int:
             f"  ratio vs {anchor:<9}{res[f'ratio_warm_vs_{anchor}']:>10.2f}"
             f"{'' if cold is None else f'{cold:10.2f}'}"
         )
-    report = {
-        "benchmark": "bench_raytree",
-        "scene": str(SCENE.relative_to(HERE.parent)),
-        "max_depth": 3,
-        "date": time.strftime("%Y-%m-%dT%H:%M:%S"),
-        "machine": {
-            "cpu_count": os.cpu_count(),
-            "platform": platform.platform(),
-            "python": platform.python_version(),
-        },
-        "mi_npr": mi_npr.__version__,
-        "variant": mi_npr.mi.variant(),
-        "llvm": mi_npr.LLVM.chosen.describe() if mi_npr.LLVM and mi_npr.LLVM.chosen else None,
-        "repeat": repeat,
-        "target": "npr_raytree warm <= 3x aov",
-        "results": [res],
-    }
-    args.out.mkdir(parents=True, exist_ok=True)
-    path = args.out / "bench_raytree.json"
-    path.write_text(json.dumps(report, indent=2))
+    path = _common.write_report(
+        "bench_raytree",
+        SCENE,
+        args.out,
+        max_depth=3,
+        repeat=repeat,
+        target="npr_raytree warm <= 3x aov",
+        results=[res],
+    )
     print(f"\nwrote {path}")
     return 0
 

@@ -48,6 +48,24 @@ def _positive(text: str) -> int:
     return n
 
 
+def _scene_batch_arguments(cmd: argparse.ArgumentParser) -> None:
+    """The arguments of commands that render a batch of scenes into OUTDIR."""
+    cmd.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
+    cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    cmd.add_argument(
+        "-D",
+        dest="defines",
+        action="append",
+        default=[],
+        type=_define,
+        metavar="NAME=VALUE",
+        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
+    )
+    cmd.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
+    cmd.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    cmd.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
@@ -59,45 +77,19 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     r = sub.add_parser("render", help="render scenes to multi-layer EXR + PNG")
-    r.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
-    r.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
-    r.add_argument(
-        "-D",
-        dest="defines",
-        action="append",
-        default=[],
-        type=_define,
-        metavar="NAME=VALUE",
-        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
-    )
-    r.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
-    r.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
-    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _scene_batch_arguments(r)
 
     t = sub.add_parser(
         "raytree",
         help="ray-tree signatures and classified edges (real/reflection/refraction/shadow)",
     )
-    t.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
-    t.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    _scene_batch_arguments(t)
     t.add_argument(
         "--max-depth",
         type=_positive,
         metavar="N",
         help="levels of the ray trees (default: the scene's npr_raytree max_depth, else 3)",
     )
-    t.add_argument(
-        "-D",
-        dest="defines",
-        action="append",
-        default=[],
-        type=_define,
-        metavar="NAME=VALUE",
-        help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
-    )
-    t.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
-    t.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
-    t.add_argument("--no-progress", action="store_true", help="no progress bar")
 
     i = sub.add_parser("info", help="list the layers, object table and camera of an EXR")
     i.add_argument("file", metavar="FILE.exr")
@@ -110,16 +102,26 @@ def _fail(message: str, code: int = 1) -> int:
     return code
 
 
-def _cmd_render(args: argparse.Namespace) -> int:
+def _scene_batch(args: argparse.Namespace) -> tuple[Path, dict]:
+    """The checked output directory and the render options of a batch-of-scenes command."""
     import mi_npr
 
-    from .batch import check_unique_stems, run_jobs
+    from .batch import check_unique_stems
 
     check_unique_stems(args.scenes)
     outdir = mi_npr.io.check_writable_dir(args.output, create=True)
     options = dict(args.defines)  # -D spp=N and --spp N mean the same; --spp wins
     if args.spp is not None:
         options["spp"] = args.spp
+    return outdir, options
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    import mi_npr
+
+    from .batch import run_jobs
+
+    outdir, options = _scene_batch(args)
 
     def job(scene: str) -> list[Path]:
         gb = mi_npr.render(scene, seed=args.seed, **options)
@@ -132,13 +134,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
 def _cmd_raytree(args: argparse.Namespace) -> int:
     import mi_npr
 
-    from .batch import check_unique_stems, run_jobs
+    from .batch import run_jobs
 
-    check_unique_stems(args.scenes)
-    outdir = mi_npr.io.check_writable_dir(args.output, create=True)
-    options = dict(args.defines)
-    if args.spp is not None:
-        options["spp"] = args.spp
+    outdir, options = _scene_batch(args)
 
     def job(scene: str) -> list[Path]:
         gb = mi_npr.raytree.render(scene, max_depth=args.max_depth, seed=args.seed, **options)
