@@ -16,7 +16,8 @@ from mi_npr.render import pixel_rays
 from .test30_raytree_signature import tree_hash_ref
 
 # Every kind of light, a mirror, a glass sphere (TIR inside it), diffuse objects, an area light
-# on a sphere (its centre is inside it) and one on a rectangle, and a one-sided mirror's back.
+# on a sphere (its centre is inside it) and one on a rectangle, a one-sided mirror's back, and an
+# instanced mirror ball (its object's BSDF is the instanced shape's).
 MIXED = """
 <shape type="sphere" id="glass"><point name="center" x="0.9" y="0" z="5"/>
     <float name="radius" value="0.9"/><bsdf type="dielectric"/></shape>
@@ -32,6 +33,10 @@ MIXED = """
     <float name="radius" value="0.25"/><emitter type="area"/></shape>
 <shape type="rectangle" id="panel"><transform name="to_world"><rotate x="1" angle="90"/>
     <scale value="0.5"/><translate x="-1" y="2.5" z="3"/></transform><emitter type="area"/></shape>
+<shape type="shapegroup" id="group"><shape type="sphere"><float name="radius" value="0.4"/>
+    <bsdf type="conductor"/></shape></shape>
+<shape type="instance" id="instanced_mirror_ball"><ref id="group"/>
+    <transform name="to_world"><translate x="-0.3" y="0.4" z="3.5"/></transform></shape>
 <emitter type="point" id="key"><point name="position" x="-3" y="4" z="1"/></emitter>
 <emitter type="spot" id="spot"><transform name="to_world"><lookat origin="1,3,2" target="1,-1,6"/>
     </transform><float name="cutoff_angle" value="15"/></emitter>

@@ -38,7 +38,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError
-from ..render import pixel_rays
+from ..render import _LOCK, pixel_rays
 from ..scene import load_scene, object_table, sensor_of
 from .lights import light_table
 from .render import scene_max_depth
@@ -93,11 +93,13 @@ def signatures_of(nodes: Nodes, n: int) -> list[str]:
 def _trace_pixels(
     scene: mi.Scene, sensor: Any, x: np.ndarray, y: np.ndarray, max_depth: int | None
 ) -> list[str]:
-    objects = object_table(scene)
-    lights = light_table(scene, objects)
-    rays = pixel_rays(sensor, mi.Float(x.astype(np.float32)), mi.Float(y.astype(np.float32)))
     depth = scene_max_depth(scene) if max_depth is None else max_depth
-    trees = trace_trees(scene, rays, objects, lights, depth, record=True)
+    with _LOCK:
+        objects = object_table(scene)
+        lights = light_table(scene, objects)
+        f = mi.Float
+        rays = pixel_rays(sensor, f(x.astype(np.float32)), f(y.astype(np.float32)))
+        trees = trace_trees(scene, rays, objects, lights, depth, record=True)
     assert trees.nodes is not None
     return signatures_of(trees.nodes, dr.width(rays.o))
 

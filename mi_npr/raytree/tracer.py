@@ -132,11 +132,14 @@ class Trees:
 
 
 def specular_lobes(objects: ObjectTable) -> list[int]:
-    """Per object id (0 = nothing hit), the flags of its BSDF's lobes that spawn children."""
+    """Per object id (0 = nothing hit), the flags of its BSDF's lobes that spawn children.
+
+    An instance's id covers shapes with BSDFs of their own: it gets every lobe, and the BSDF
+    call decides per hit."""
     out = [0] * (len(objects) + 1)
     for k, shape in objects.shapes.items():
-        bsdf = shape.bsdf()
-        flags = int(bsdf.flags()) if bsdf is not None else 0
+        bsdf = None if shape.class_name() == "Instance" else shape.bsdf()
+        flags = int(bsdf.flags()) if bsdf is not None else -1
         out[k] = flags & (REFLECTION_LOBES | REFRACTION_LOBES)
     return out
 
