@@ -122,3 +122,22 @@ def test07_sample_fallback_and_to_string(write_scene):
     sampler.seed(0, 1)
     _color, _valid, aovs = integ.sample(scene, sampler, mi.RayDifferential3f(ray))
     assert len(aovs) == len(integ.aov_names())
+
+
+def test08_with_overlays_equals_chained_with_overlay():
+    from mi_npr.compose import with_overlay, with_overlays
+
+    rng = np.random.default_rng(8)
+    h, w = 7, 5
+    gb = mi_npr.GBuffer({c: rng.random((h, w), dtype=np.float32) for c in L.RGB})
+    binary = (rng.random((h, w)) < 0.3).astype(np.float32)
+    soft = rng.random((h, w)).astype(np.float32)
+    soft[0, 0] = np.nan  # counts as 0
+    layers = [(binary, (1, 0, 0)), (soft, (0, 0.5, 1)), (1 - binary, (0.2, 0.2, 0.2))]
+    chained = gb
+    for alpha, color in layers:
+        chained = with_overlay(chained, alpha, color)
+    once = with_overlays(gb, layers)
+    for name in (*L.RGB, *L.RAW_RGB):
+        np.testing.assert_allclose(once[name], chained[name], rtol=1e-6, err_msg=name)
+    np.testing.assert_array_equal(once.stack(L.RAW_RGB), gb.beauty)
