@@ -17,16 +17,13 @@ Prints a table with the ratios ours / anchor (< 1 means faster) and writes JSON.
 
 from __future__ import annotations
 
-import argparse
-import json
-import os
-import platform
 import statistics
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
+
+import _common
+from _common import aov_anchor
 
 HERE = Path(__file__).resolve().parent
 SCENE = HERE.parent / "scenes_xml" / "scene2.xml"
@@ -51,48 +48,11 @@ def _setup(case: str, w: int, h: int):
             dr.sync_thread()
 
         return run
-    aov = mi.load_dict({"type": "aov", "aovs": "dd.y:depth,id:shape_index,nn:sh_normal"})
-    sensor = scene.sensors()[0]
-    if case == "aov_box":
-        import numpy as np
-
-        m = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4)
-        sensor = mi.load_dict(
-            {
-                "type": "perspective",
-                "fov": float(mi.traverse(sensor)["x_fov"][0]),
-                "to_world": mi.ScalarTransform4f(m),
-                "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": {"type": "box"}},
-                "sampler": {"type": "independent", "sample_count": 1},
-            }
-        )
-
-    def run_aov():
-        img = mi.render(scene, sensor=sensor, integrator=aov, spp=1)
-        dr.eval(img)
-        dr.sync_thread()
-
-    return run_aov
-
-
-def _cold_child(case: str, w: int, h: int) -> None:
-    fn = _setup(case, w, h)
-    t0 = time.perf_counter()
-    fn()
-    print(json.dumps({"cold_ms": (time.perf_counter() - t0) * 1e3}))
+    return aov_anchor(scene, w, h, box=case == "aov_box")
 
 
 def measure_cold(case: str, w: int, h: int) -> float:
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, DRJIT_CACHE_DIR=cache)
-        out = subprocess.run(
-            [sys.executable, __file__, "--cold-child", case, str(w), str(h)],
-            capture_output=True,
-            text=True,
-            env=env,
-            check=True,
-        )
-    return json.loads(out.stdout.strip().splitlines()[-1])["cold_ms"]
+    return _common.measure_cold(__file__, case, w, h)
 
 
 def measure_warm(case: str, w: int, h: int, repeat: int) -> float:
@@ -107,16 +67,9 @@ def measure_warm(case: str, w: int, h: int, repeat: int) -> float:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=15)
-    ap.add_argument("--quick", action="store_true", help="640x480 only, 5 repeats")
-    ap.add_argument("--out", type=Path, default=HERE / "results")
-    ap.add_argument("--cold-child", nargs=3, help=argparse.SUPPRESS)
-    args = ap.parse_args()
-    if args.cold_child:
-        _cold_child(args.cold_child[0], int(args.cold_child[1]), int(args.cold_child[2]))
+    args = _common.parse_args(__doc__, _setup, "640x480 only, 5 repeats")
+    if args is None:
         return 0
-    import mi_npr
 
     sizes = SIZES[:1] if args.quick else SIZES
     repeat = 5 if args.quick else args.repeat
@@ -142,24 +95,7 @@ def main() -> int:
                 f"  ratio vs {anchor:<13}{res[f'ratio_warm_vs_{anchor}']:>10.2f}"
                 f"{res[f'ratio_cold_vs_{anchor}']:>10.2f}"
             )
-    report = {
-        "benchmark": "bench_gbuffer",
-        "scene": str(SCENE.relative_to(HERE.parent)),
-        "date": time.strftime("%Y-%m-%dT%H:%M:%S"),
-        "machine": {
-            "cpu_count": os.cpu_count(),
-            "platform": platform.platform(),
-            "python": platform.python_version(),
-        },
-        "mi_npr": mi_npr.__version__,
-        "variant": mi_npr.mi.variant(),
-        "llvm": mi_npr.LLVM.chosen.describe() if mi_npr.LLVM and mi_npr.LLVM.chosen else None,
-        "repeat": repeat,
-        "results": rows,
-    }
-    args.out.mkdir(parents=True, exist_ok=True)
-    path = args.out / "bench_gbuffer.json"
-    path.write_text(json.dumps(report, indent=2))
+    path = _common.write_report("bench_gbuffer", SCENE, args.out, repeat=repeat, results=rows)
     print(f"\nwrote {path}")
     return 0
 

@@ -71,6 +71,20 @@ def contours_panel() -> Path:
     fig.tight_layout()
     path = OUT / "contours_scenes.png"
     fig.savefig(path, dpi=80)
+
+
+def raytree_panel() -> Path:
+    scenes = ("scene1.xml", "raytree_mirror_glass.xml")
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.4))
+    for a, name in zip(ax, scenes, strict=True):
+        gb = mi_npr.raytree.render(ROOT / "scenes_xml" / name, width=400, height=300, spp=64)
+        a.imshow(mi_npr.io.to_rgb8(gb.beauty))
+        a.set_title(name)
+        a.axis("off")
+    fig.suptitle("ray-tree edges: real red, reflection blue, refraction green, shadow gray")
+    fig.tight_layout()
+    path = OUT / "raytree_edges.png"
+    fig.savefig(path, dpi=72)
     return path
 
 
@@ -79,3 +93,4 @@ if __name__ == "__main__":
     print(gbuffer_panel())
     print(lines_panel())
     print(contours_panel())
+    print(raytree_panel())

@@ -16,7 +16,7 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import contours, io, kernels  # noqa: E402
+from . import contours, io, kernels, raytree  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -38,6 +38,7 @@ __all__ = [
     "load_scene",
     "mi",
     "object_table",
+    "raytree",
     "render",
     "render_gbuffer",
     "set_variant",

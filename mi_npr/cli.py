@@ -48,11 +48,11 @@ def _positive(text: str) -> int:
     return n
 
 
-def _scene_arguments(p: argparse.ArgumentParser) -> None:
-    """The arguments of every command that renders scenes: inputs, output, defines, spp, seed."""
-    p.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
-    p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
-    p.add_argument(
+def _scene_batch_arguments(cmd: argparse.ArgumentParser) -> None:
+    """The arguments of commands that render a batch of scenes into OUTDIR."""
+    cmd.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
+    cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    cmd.add_argument(
         "-D",
         dest="defines",
         action="append",
@@ -61,9 +61,9 @@ def _scene_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE",
         help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
     )
-    p.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
-    p.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    cmd.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
+    cmd.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    cmd.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -77,12 +77,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     r = sub.add_parser("render", help="render scenes to multi-layer EXR + PNG")
-    _scene_arguments(r)
+    _scene_batch_arguments(r)
 
     c = sub.add_parser(
         "contours", help="apparent contours in red over the beauty render: PNG, SVG and EXR"
     )
-    _scene_arguments(c)
+    _scene_batch_arguments(c)
     # The same names as mi_npr.contours.METHODS / ID_MODES (not imported: parsing needs no LLVM).
     c.add_argument(
         "--method",
@@ -98,6 +98,18 @@ def build_parser() -> argparse.ArgumentParser:
         "--no-beauty-in-svg", action="store_true", help="do not embed the beauty in the SVG"
     )
 
+    t = sub.add_parser(
+        "raytree",
+        help="ray-tree signatures and classified edges (real/reflection/refraction/shadow)",
+    )
+    _scene_batch_arguments(t)
+    t.add_argument(
+        "--max-depth",
+        type=_positive,
+        metavar="N",
+        help="levels of the ray trees (default: the scene's npr_raytree max_depth, else 3)",
+    )
+
     i = sub.add_parser("info", help="list the layers, object table and camera of an EXR")
     i.add_argument("file", metavar="FILE.exr")
     i.add_argument("--json", action="store_true", help="print JSON")
@@ -109,16 +121,26 @@ def _fail(message: str, code: int = 1) -> int:
     return code
 
 
-def _cmd_render(args: argparse.Namespace) -> int:
+def _scene_batch(args: argparse.Namespace) -> tuple[Path, dict]:
+    """The checked output directory and the render options of a batch-of-scenes command."""
     import mi_npr
 
-    from .batch import check_unique_stems, run_jobs
+    from .batch import check_unique_stems
 
     check_unique_stems(args.scenes)
     outdir = mi_npr.io.check_writable_dir(args.output, create=True)
     options = dict(args.defines)  # -D spp=N and --spp N mean the same; --spp wins
     if args.spp is not None:
         options["spp"] = args.spp
+    return outdir, options
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    import mi_npr
+
+    from .batch import run_jobs
+
+    outdir, options = _scene_batch(args)
 
     def job(scene: str) -> list[Path]:
         gb = mi_npr.render(scene, seed=args.seed, **options)
@@ -131,13 +153,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
 def _cmd_contours(args: argparse.Namespace) -> int:
     import mi_npr
 
-    from .batch import check_unique_stems, run_jobs
+    from .batch import run_jobs
 
-    check_unique_stems(args.scenes)
-    outdir = mi_npr.io.check_writable_dir(args.output, create=True)
-    options = dict(args.defines)
-    if args.spp is not None:
-        options["spp"] = args.spp
+    outdir, options = _scene_batch(args)
 
     def job(scene: str) -> list[Path]:
         gb, contours = mi_npr.contours.render_contours(
@@ -146,6 +164,25 @@ def _cmd_contours(args: argparse.Namespace) -> int:
         return mi_npr.io.write_contour_outputs(
             gb, contours, outdir, Path(scene).stem, beauty_in_svg=not args.no_beauty_in_svg
         )
+
+    results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
+    return _report(results)
+
+
+def _cmd_raytree(args: argparse.Namespace) -> int:
+    import mi_npr
+
+    from .batch import run_jobs
+
+    outdir, options = _scene_batch(args)
+
+    def job(scene: str) -> list[Path]:
+        gb = mi_npr.raytree.render(scene, max_depth=args.max_depth, seed=args.seed, **options)
+        stem = Path(scene).stem
+        return [
+            mi_npr.io.write_exr(outdir / f"{stem}.exr", gb),
+            mi_npr.io.write_png(outdir / f"{stem}_raytree.png", gb.beauty),
+        ]
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
     return _report(results)
@@ -193,7 +230,12 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"render": _cmd_render, "info": _cmd_info, "contours": _cmd_contours}
+COMMANDS = {
+    "render": _cmd_render,
+    "contours": _cmd_contours,
+    "raytree": _cmd_raytree,
+    "info": _cmd_info,
+}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -39,6 +39,25 @@ def with_overlay(gb: GBuffer, alpha: np.ndarray, color: Sequence[float]) -> GBuf
     return gb.with_layers({**raw, **{c: out[..., i] for i, c in enumerate(L.RGB)}})
 
 
+def with_overlays(gb: GBuffer, overlays: Sequence[tuple[np.ndarray, Sequence[float]]]) -> GBuffer:
+    """``gb`` with several ``(alpha, color)`` overlays composited in order: the same image as
+    chained :func:`with_overlay` calls, built once. Binary masks (alpha only 0 or 1, as edge
+    layers are) are drawn by assignment, channel by channel, several times faster."""
+    raw = {} if L.RAW_RGB[0] in gb else dict(zip(L.RAW_RGB, (gb[c] for c in L.RGB), strict=True))
+    planes = [gb[c].copy() for c in L.RGB]
+    for alpha, color in overlays:
+        a = np.asarray(alpha)
+        c = np.asarray(color, dtype=np.float32).reshape(-1)
+        m = a == 1
+        if a.shape == gb.shape and c.size == 3 and m.sum() + (a == 0).sum() == a.size:
+            for plane, v in zip(planes, c, strict=True):
+                plane[m] = v
+        else:
+            out = over(np.stack(planes, axis=-1), a, color)
+            planes = [np.ascontiguousarray(out[..., i]) for i in range(3)]
+    return gb.with_layers({**raw, **dict(zip(L.RGB, planes, strict=True))})
+
+
 def raw_beauty(gb: GBuffer) -> np.ndarray:
     """The beauty before any overlay: ``beauty.R/G/B`` if present, else ``R G B``."""
     return gb.stack(L.RAW_RGB) if L.RAW_RGB[0] in gb else gb.beauty

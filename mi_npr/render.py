@@ -179,6 +179,25 @@ def render_gbuffer(
     return GBuffer(ordered, table.names, camera_of(sensor), meta)
 
 
+def prepare(
+    scene: str | os.PathLike[str] | mi.Scene, spp: int | str | None, defines: dict[str, Any]
+) -> tuple[mi.Scene, int | None, str | None]:
+    """What :func:`render` does before rendering: ``(loaded scene, spp, source path)``.
+
+    ``spp`` may be a string (command line, define); it also fills the XML's ``spp`` default
+    when the file declares one.
+    """
+    source = os.fspath(scene) if isinstance(scene, (str, os.PathLike)) else None
+    if isinstance(spp, str):  # from a command line or a define
+        try:
+            spp = int(spp)
+        except ValueError:
+            raise ParameterError(f"spp = {spp!r}: must be a positive integer") from None
+    if spp is not None and source is not None and "spp" in declared_defaults(source):
+        defines["spp"] = spp
+    return load_scene(scene, **defines), spp, source
+
+
 def render(
     scene: str | os.PathLike[str] | mi.Scene,
     *,
@@ -199,15 +218,7 @@ def render(
     >>> gb = mi_npr.render("scenes_xml/scene1.xml", width=64, height=48, spp=4)  # doctest: +SKIP
     >>> gb["Z"].shape, gb.objects                                                # doctest: +SKIP
     """
-    source = os.fspath(scene) if isinstance(scene, (str, os.PathLike)) else None
-    if isinstance(spp, str):  # from a command line or a define
-        try:
-            spp = int(spp)
-        except ValueError:
-            raise ParameterError(f"spp = {spp!r}: must be a positive integer") from None
-    if spp is not None and source is not None and "spp" in declared_defaults(source):
-        defines["spp"] = spp
-    loaded = load_scene(scene, **defines)
+    loaded, spp, source = prepare(scene, spp, defines)
     integrator = loaded.integrator()
     if hasattr(integrator, "npr_gbuffer"):
         return integrator.npr_gbuffer(loaded, sensor=sensor, spp=spp, seed=seed, source=source)

@@ -1,0 +1,112 @@
+"""What the benchmarks share: Mitsuba's ``aov`` anchor, cold runs in a fresh process with an
+empty kernel cache, and the JSON report (``import _common`` from a script in this folder)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+
+
+def parse_args(
+    doc: str, setup: Callable[[str, int, int], Callable[[], Any]], quick: str
+) -> argparse.Namespace | None:
+    """The benchmarks' options (``--repeat``, ``--quick``, ``--out``); ``None`` when this process
+    is a cold-run child (``--cold-child case w h``), which has then timed its run."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=15)
+    ap.add_argument("--quick", action="store_true", help=quick)
+    ap.add_argument("--out", type=Path, default=HERE / "results")
+    ap.add_argument("--cold-child", nargs=3, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.cold_child:
+        cold_child(setup, args.cold_child[0], *map(int, args.cold_child[1:]))
+        return None
+    return args
+
+
+def aov_anchor(scene: Any, w: int, h: int, box: bool) -> Callable[[], None]:
+    """Mitsuba's C++ ``aov`` integrator (depth, shape_index, sh_normal) at 1 spp on ``scene``:
+    with a ``box`` reconstruction filter (its cheapest setting), or with the scene's own film."""
+    import mi_npr
+
+    mi, dr = mi_npr.mi, mi_npr.dr
+    aov = mi.load_dict({"type": "aov", "aovs": "dd.y:depth,id:shape_index,nn:sh_normal"})
+    sensor = scene.sensors()[0]
+    if box:
+        import numpy as np
+
+        m = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4)
+        sensor = mi.load_dict(
+            {
+                "type": "perspective",
+                "fov": float(mi.traverse(sensor)["x_fov"][0]),
+                "to_world": mi.ScalarTransform4f(m),
+                "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": {"type": "box"}},
+                "sampler": {"type": "independent", "sample_count": 1},
+            }
+        )
+
+    def run_aov():
+        img = mi.render(scene, sensor=sensor, integrator=aov, spp=1)
+        dr.eval(img)
+        dr.sync_thread()
+
+    return run_aov
+
+
+def cold_child(setup: Callable[[str, int, int], Callable[[], Any]], case: str, w: int, h: int):
+    """In the child process: time the first run of ``setup(case, w, h)``, print it as JSON."""
+    fn = setup(case, w, h)
+    t0 = time.perf_counter()
+    fn()
+    print(json.dumps({"cold_ms": (time.perf_counter() - t0) * 1e3}))
+
+
+def measure_cold(script: str, case: str, w: int, h: int) -> float:
+    """Run ``script --cold-child case w h`` with an empty Dr.Jit kernel cache; its time in ms."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, DRJIT_CACHE_DIR=cache)
+        out = subprocess.run(
+            [sys.executable, script, "--cold-child", case, str(w), str(h)],
+            capture_output=True,
+            text=True,
+            env=env,
+            check=True,
+        )
+    return json.loads(out.stdout.strip().splitlines()[-1])["cold_ms"]
+
+
+def write_report(name: str, scene: Path, out: Path, **fields: Any) -> Path:
+    """``out/<name>.json``: the machine, versions and ``fields`` (results, repeat, ...)."""
+    import mi_npr
+
+    report = {
+        "benchmark": name,
+        "scene": str(scene.relative_to(ROOT)),
+        "date": time.strftime("%Y-%m-%dT%H:%M:%S"),
+        "machine": {
+            "cpu_count": os.cpu_count(),
+            "platform": platform.platform(),
+            "python": platform.python_version(),
+        },
+        "mi_npr": mi_npr.__version__,
+        "variant": mi_npr.mi.variant(),
+        "llvm": mi_npr.LLVM.chosen.describe() if mi_npr.LLVM and mi_npr.LLVM.chosen else None,
+        **fields,
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"{name}.json"
+    path.write_text(json.dumps(report, indent=2))
+    return path

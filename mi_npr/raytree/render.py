@@ -1,0 +1,137 @@
+"""The ray-tree pass of an image: ``raytree.hi``/``raytree.lo`` at pixel centres, the four edge
+layers from the corner grid, and the overlay of the edge classes on the beauty.
+
+One wavefront traces both ray sets: the W x H pixel-centre rays (the G-buffer's rays,
+:func:`mi_npr.render.pixel_rays` at ``(x + 0.5, y + 0.5)``) and the (W + 1) x (H + 1) corner rays
+(at integer film positions ``(x, y)``, ``0 <= x <= W``, ``0 <= y <= H``).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from .. import layers as L
+from ..compose import with_overlays
+from ..errors import ParameterError, SceneError, one_line
+from ..gbuffer import GBuffer
+from ..render import _LOCK, pixel_rays, prepare, render_gbuffer
+from ..scene import object_table, sensor_of
+from .edges import as_image, classify_edges
+from .lights import light_table
+from .tracer import Trees, check_max_depth, trace_trees
+
+#: Overlay colours (linear RGB) of the edge classes, as the issue asks.
+COLORS: dict[str, tuple[float, float, float]] = {
+    L.EDGES_REAL: (1.0, 0.0, 0.0),
+    L.EDGES_REFLECTION: (0.0, 0.0, 1.0),
+    L.EDGES_REFRACTION: (0.0, 1.0, 0.0),
+    L.EDGES_SHADOW: (0.5, 0.5, 0.5),
+}
+#: The layers this pass adds, in EXR / ``aov_names`` order.
+LAYERS = (L.RAYTREE_HI, L.RAYTREE_LO, *L.EDGES)
+
+
+def scene_max_depth(scene: mi.Scene) -> int:
+    """The ``max_depth`` of the scene's ``npr_raytree`` integrator, else the default 3."""
+    integ = scene.integrator()
+    if getattr(integ, "PLUGIN", None) == "npr_raytree":
+        return int(integ.params["max_depth"])
+    return 3
+
+
+def _slice(trees: Trees, start: int, count: int) -> Trees:
+    idx = dr.arange(mi.UInt32, count) + start
+
+    def g(tp: type, a: Any) -> Any:
+        return dr.gather(tp, a, idx)
+
+    return Trees(
+        g(mi.UInt64, trees.hash),
+        g(mi.UInt32, trees.root_obj),
+        tuple(g(mi.UInt32, w) for w in trees.root_lights),
+        tuple((g(mi.UInt64, a), g(mi.UInt64, b)) for a, b in trees.levels),
+    )
+
+
+def raytree_layers(
+    scene: mi.Scene, sensor: int | mi.Sensor = 0, max_depth: int = 3
+) -> dict[str, np.ndarray]:
+    """``raytree.hi``, ``raytree.lo`` (uint32) and the four ``edges.*`` layers (float32 0/1)
+    of ``sensor``'s image, each an (H, W) numpy array."""
+    max_depth = check_max_depth(max_depth)
+    if not dr.is_jit_v(mi.Float):
+        raise ParameterError(
+            f"ray trees need a JIT variant (llvm_ad_rgb, cuda_ad_rgb), not {mi.variant()!r}"
+        )
+    s = sensor_of(scene, sensor)
+    w, h = (int(v) for v in s.film().crop_size())
+    objects = object_table(scene)
+    lights = light_table(scene, objects)
+    n_px, n_c = w * h, (w + 1) * (h + 1)
+    i = dr.arange(mi.UInt32, n_px + n_c)
+    corner = i >= n_px
+    k = dr.select(corner, i - n_px, i)
+    cols = dr.select(corner, w + 1, w)
+    x = mi.Float(k % cols) + dr.select(corner, 0.0, 0.5)
+    y = mi.Float(k // cols) + dr.select(corner, 0.0, 0.5)
+    trees = trace_trees(scene, pixel_rays(s, x, y), objects, lights, max_depth)
+    dr.eval(trees.hash, trees.root_obj, trees.root_lights, trees.levels)
+    hi, lo = _slice(trees, 0, n_px).hi_lo()
+    edges = classify_edges(_slice(trees, n_px, n_c), w, h)
+    dr.eval(hi, lo, *edges.values())
+    out = {L.RAYTREE_HI: as_image(hi, w, h), L.RAYTREE_LO: as_image(lo, w, h)}
+    out.update({name: as_image(v, w, h) for name, v in edges.items()})
+    return out
+
+
+def overlay(gb: GBuffer) -> GBuffer:
+    """``gb`` with each edge class drawn over the beauty in its colour (:data:`COLORS`); the
+    untouched beauty stays in ``beauty.R/G/B``."""
+    return with_overlays(gb, [(gb[name], color) for name, color in COLORS.items()])
+
+
+def add_raytree(
+    scene: mi.Scene, sensor: int | mi.Sensor, gb: GBuffer, max_depth: int = 3
+) -> GBuffer:
+    """``gb`` plus the ray-tree layers, with the edge classes composited onto ``R G B``."""
+    with _LOCK:
+        try:
+            new = raytree_layers(scene, sensor, max_depth)
+        except (ParameterError, SceneError):
+            raise
+        except RuntimeError as e:
+            src = gb.metadata.get("mi_npr/scene", "scene")
+            raise SceneError(f"{src}: ray-tree pass failed: {one_line(e)}") from None
+    out = overlay(gb.with_layers(new))
+    return out.with_metadata(**{"mi_npr/raytree_max_depth": max_depth})
+
+
+def render(
+    scene: str | os.PathLike[str] | mi.Scene,
+    *,
+    max_depth: int | None = None,
+    sensor: int = 0,
+    spp: int | str | None = None,
+    seed: int = 0,
+    **defines: Any,
+) -> GBuffer:
+    """Render ``scene`` with the ray-tree layers and overlay, whatever its integrator.
+
+    The beauty comes from the scene's integrator (the nested one of an mi-npr integrator).
+    ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3. ``defines`` fill
+    the XML's ``<default>``s, as in :func:`mi_npr.render`.
+    """
+    loaded, spp, source = prepare(scene, spp, defines)
+    integ = loaded.integrator()
+    is_npr = hasattr(integ, "npr_gbuffer")
+    max_depth = check_max_depth(scene_max_depth(loaded) if max_depth is None else max_depth)
+    beauty = integ.beauty if is_npr else integ
+    s = sensor_of(loaded, sensor)
+    gb = render_gbuffer(loaded, s, beauty, spp, seed, source)
+    gb = add_raytree(loaded, s, gb, max_depth)
+    return gb.with_metadata(**{"mi_npr/integrator": "npr_raytree"})

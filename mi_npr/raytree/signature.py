@@ -1,0 +1,147 @@
+"""Readable ray-tree signatures in the notation of the paper's Fig. 5 (``4A2BL1C``).
+
+The figure itself is missing from the extracted text; its caption gives trees *a* and *b* the
+strings ``4A2BL1C`` and ``7A3BL1``. We read them as: nodes listed children first (post-order), each
+as its *position* (heap numbering: root 1, reflection child of ``p`` = ``2p``, refraction child =
+``2p + 1``), its *object* letter and the *lights* it sees, the root's position 1 left out. Tree
+*a* is then a primary hit on object C (position 1), whose mirror reflection hits B (position 2),
+which sees light 1 and whose own reflection hits A (position 4). Tree *b* is the same chain along
+refraction rays (positions 3 and 7); its root letter is not in the extracted caption, which we
+take for an extraction loss.
+
+Grammar (every tree has exactly one string and every string one tree)::
+
+    signature := node* root | ""            ("" = the ray hits nothing)
+    node      := POSITION object light*     (POSITION >= 2, decimal)
+    root      := object light*
+    object    := "A".."Z" for ids 1..26,  "{id}" for ids > 26
+    light     := "L1".."L9" for lights 1..9,  "L{k}" for lights k > 9
+
+Order: a node's reflection subtree, then its refraction subtree, then the node; lights in
+increasing number. Object ids are the stable ids of :func:`mi_npr.object_table` (``object_id``
+layer); light numbers those of :func:`mi_npr.raytree.light_table`. A ray that hits nothing adds
+no node (a mirror reflecting the empty background has no child), and the tree of a ray that
+hits nothing is the empty string.
+
+>>> format_signature({1: (3, (0,)), 2: (2, (1,)), 4: (1, (0,))})
+'4A2BL1C'
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from ..errors import ParameterError
+from ..render import _LOCK, pixel_rays
+from ..scene import load_scene, object_table, sensor_of
+from .lights import light_table
+from .render import scene_max_depth
+from .tracer import Nodes, trace_trees
+
+Tree = Mapping[int, tuple[int, Sequence[int]]]
+
+
+def object_letters(obj: int) -> str:
+    """``1 -> "A"`` ... ``26 -> "Z"``, larger ids in braces (``27 -> "{27}"``)."""
+    if obj < 1:
+        raise ParameterError(f"object id {obj} has no letter (0 is the background)")
+    return chr(ord("A") + obj - 1) if obj <= 26 else f"{{{obj}}}"
+
+
+def light_marks(words: Sequence[int]) -> str:
+    """The lights of a mask, ``L1`` ... ``L9``, ``L{10}`` ... (bit ``k - 1`` = light ``k``)."""
+    out = []
+    for w_i, w in enumerate(words):
+        for b in range(32):
+            if (int(w) >> b) & 1:
+                k = 32 * w_i + b + 1
+                out.append(f"L{k}" if k <= 9 else f"L{{{k}}}")
+    return "".join(out)
+
+
+def format_signature(tree: Tree) -> str:
+    """The string of a tree given as ``{position: (object id, light-mask words)}``."""
+    if not tree:
+        return ""
+    if 1 not in tree:
+        raise ParameterError("a ray tree needs a root (position 1)")
+
+    def walk(p: int) -> str:
+        if p not in tree:
+            return ""
+        obj, words = tree[p]
+        me = object_letters(obj) + light_marks(words)
+        return walk(2 * p) + walk(2 * p + 1) + (str(p) if p > 1 else "") + me
+
+    return walk(1)
+
+
+def signatures_of(nodes: Nodes, n: int) -> list[str]:
+    """The strings of rays ``0 .. n - 1`` from recorded :class:`Nodes`."""
+    trees: list[dict[int, tuple[int, tuple[int, ...]]]] = [{} for _ in range(n)]
+    for r, p, o, w in zip(nodes.ray, nodes.pos, nodes.obj, nodes.lights, strict=True):
+        trees[int(r)][int(p)] = (int(o), tuple(int(v) for v in w))
+    return [format_signature(t) for t in trees]
+
+
+def _trace_pixels(
+    scene: mi.Scene, sensor: Any, x: np.ndarray, y: np.ndarray, max_depth: int | None
+) -> list[str]:
+    depth = scene_max_depth(scene) if max_depth is None else max_depth
+    with _LOCK:
+        objects = object_table(scene)
+        lights = light_table(scene, objects)
+        f = mi.Float
+        rays = pixel_rays(sensor, f(x.astype(np.float32)), f(y.astype(np.float32)))
+        trees = trace_trees(scene, rays, objects, lights, depth, record=True)
+    assert trees.nodes is not None
+    return signatures_of(trees.nodes, dr.width(rays.o))
+
+
+def signature(
+    scene: str | os.PathLike[str] | mi.Scene,
+    x: int,
+    y: int,
+    *,
+    max_depth: int | None = None,
+    sensor: int = 0,
+) -> str:
+    """The signature of pixel ``(x, y)``'s tree (ray through the pixel centre, like the
+    ``raytree.hi``/``raytree.lo`` layers), for debugging and tests.
+
+    ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3.
+
+    >>> mi_npr.raytree.signature("scenes_xml/scene1.xml", 320, 300)  # doctest: +SKIP
+    '2BL1L2C'
+    """
+    scene = load_scene(scene)
+    s = sensor_of(scene, sensor)
+    w, h = (int(v) for v in s.film().crop_size())
+    for name, v, hi in (("x", x, w), ("y", y, h)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v < hi:
+            raise ParameterError(f"{name} = {v!r}: must be an integer pixel index in 0..{hi - 1}")
+    return _trace_pixels(scene, s, np.array([x + 0.5]), np.array([y + 0.5]), max_depth)[0]
+
+
+def signatures(
+    scene: str | os.PathLike[str] | mi.Scene,
+    *,
+    max_depth: int | None = None,
+    sensor: int = 0,
+    corners: bool = False,
+) -> np.ndarray:
+    """The signatures of every pixel centre, an (H, W) array of ``str``; with ``corners``, of
+    every pixel corner, (H + 1, W + 1) (the rays the edge layers compare)."""
+    scene = load_scene(scene)
+    s = sensor_of(scene, sensor)
+    w, h = (int(v) for v in s.film().crop_size())
+    off, cw, ch = (0.0, w + 1, h + 1) if corners else (0.5, w, h)
+    yy, xx = np.mgrid[0:ch, 0:cw]
+    out = _trace_pixels(scene, s, xx.ravel() + off, yy.ravel() + off, max_depth)
+    return np.array(out, dtype=object).reshape(ch, cw)

@@ -1,0 +1,88 @@
+"""``npr_raytree``: Nehab-Gattass ray-tree signatures and classified ray-tree edges.
+
+Every pixel's ray tree (paper, section 2.2.3) is traced deterministically: the object hit, the
+lights visible from it (one shadow ray per emitter), and, below mirror-like surfaces (delta
+reflection) a reflection child, below glass (delta transmission) also a refraction child, down to
+``max_depth`` levels; rough and diffuse surfaces end a branch. The tree's 64-bit hash is written
+as ``raytree.hi``/``raytree.lo``; trees at pixel corners are compared and each edge pixel is
+classified as a real contour, a shadow, a reflection or a refraction edge. The classes are drawn
+over the beauty: real red, reflection blue, refraction green, shadow gray.
+
+.. list-table::
+   :header-rows: 1
+
+   * - Parameter
+     - Type
+     - Default
+     - Meaning
+   * - ``max_depth``
+     - integer
+     - 3
+     - levels of the ray trees (1: primary hits only; 3: primary hits, their reflections and
+       refractions, and those rays' own reflections and refractions)
+   * - (nested integrator)
+     - integrator
+     - none
+     - renders the beauty ``R G B`` under the overlay (``path``, ``direct``, ...); without one,
+       a headlight diffuse shading
+
+Lights (see :mod:`mi_npr.raytree.lights`): point and spot lights are tested at their position,
+area lights at their shape's centre, directional lights along their direction, and an
+environment (``envmap``, ``constant``) counts as one light tested along the surface normal.
+Lights are numbered 1..K by name (their XML ``id``), objects by the stable object ids.
+
+Channels after ``R G B`` (``aov_names()``):
+
+=====================  =======  ==========================================================
+channel                type     meaning
+=====================  =======  ==========================================================
+``raytree.hi/lo``      uint32   64-bit hash of the pixel-centre tree (0: nothing hit)
+``edges.real``         float32  1 where the corner trees' primary objects differ
+``edges.reflection``   float32  1 where they first differ in reflection children
+``edges.refraction``   float32  1 where they first differ in refraction children
+``edges.shadow``       float32  1 where the objects agree but the visible lights differ
+``beauty.R/G/B``       float32  the beauty before the overlay
+(G-buffer)             ...      ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id``
+=====================  =======  ==========================================================
+
+``R G B`` hold the beauty with the edge classes drawn over it. ``mi_npr.raytree.signature(scene,
+x, y)`` returns the readable tree of one pixel (``"4A2BL1C"``).
+
+XML::
+
+    <integrator type="npr_raytree">
+        <integer name="max_depth" value="3"/>
+        <integrator type="path"/>
+    </integrator>
+"""
+
+from __future__ import annotations
+
+import mitsuba as mi
+
+from mi_npr import layers as L
+from mi_npr.gbuffer import GBuffer
+from mi_npr.integrator import NprIntegrator
+from mi_npr.params import Param
+from mi_npr.raytree import LAYERS, add_raytree
+from mi_npr.raytree.tracer import MAX_DEPTH
+
+
+def _depth(v: int) -> str | None:
+    return None if 1 <= v <= MAX_DEPTH else f"must be in 1..{MAX_DEPTH}"
+
+
+class NprRayTreeIntegrator(NprIntegrator):
+    """Ray-tree signatures and classified edges (see the module docstring for the manual)."""
+
+    PLUGIN = "npr_raytree"
+    PARAMS = (Param("max_depth", int, 3, "levels of the ray trees", _depth),)
+
+    def aov_names(self) -> list[str]:
+        return [*LAYERS, *L.RAW_RGB, *L.GBUFFER_AOVS]
+
+    def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
+        return add_raytree(scene, sensor, gb, self.params["max_depth"])
+
+
+mi.register_integrator("npr_raytree", lambda props: NprRayTreeIntegrator(props))
