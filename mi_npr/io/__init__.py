@@ -9,6 +9,7 @@ from ..gbuffer import GBuffer
 from ._atomic import atomic_output, check_writable_dir
 from .exr import describe, read_exr, write_exr
 from .png import linear_to_srgb, to_rgb8, write_png
+from .text import write_text
 
 
 def write_outputs(gb: GBuffer, outdir: str | os.PathLike[str], stem: str) -> list[Path]:
@@ -27,4 +28,5 @@ __all__ = [
     "write_exr",
     "write_outputs",
     "write_png",
+    "write_text",
 ]
