@@ -78,10 +78,20 @@ def brute_numbering(scene):
     return table, base, n
 
 
+def gbuffer_areas(scene, gb):
+    """Per-polygon pixel counts of a G-buffer's object_id / prim_id, numbered by hand."""
+    table, base, n = brute_numbering(scene)
+    oid, prim = gb["object_id"].ravel(), gb["prim_id"].ravel()
+    poly = np.zeros(oid.shape, np.int64)
+    for k, s in table.shapes.items():
+        sel = oid == k
+        poly[sel] = base[k] + (prim[sel] if s.is_mesh() else 0) + 1
+    return np.bincount(poly, minlength=n + 1)
+
+
 def brute_areas(scene, origin, target, up, fov, w, h):
     """One Mitsuba sensor per viewpoint, mi-npr's exact G-buffer pass, numpy counting."""
     mi = mi_npr.mi
-    table, base, n = brute_numbering(scene)
     sensor = mi.load_dict(
         {
             "type": "perspective",
@@ -92,12 +102,7 @@ def brute_areas(scene, origin, target, up, fov, w, h):
         }
     )
     gb = mi_npr.render_gbuffer(scene, sensor)
-    oid, prim = gb["object_id"].ravel(), gb["prim_id"].ravel()
-    poly = np.zeros(oid.shape, np.int64)
-    for k, s in table.shapes.items():
-        sel = oid == k
-        poly[sel] = base[k] + (prim[sel] if s.is_mesh() else 0) + 1
-    return np.bincount(poly, minlength=n + 1), gb
+    return gbuffer_areas(scene, gb), gb
 
 
 def test01_numbering(write_scene, ply):
@@ -206,6 +211,8 @@ def test07_bad_input(write_scene, ply):
     scalar = mi_npr.load_scene(write_scene(MIXED.format(ply=ply), name="s.xml"))
     with pytest.raises(mi_npr.ParameterError, match="JIT variant"):
         areas(scalar, [[0, 0, 4]], (0, 0, 0), 40.0, (4, 4))
+    with pytest.raises(mi_npr.ParameterError, match="JIT variant"):
+        mi_npr.viewpoint.quality(scalar, [0, 0, 4])
 
 
 def test08_view_frame_is_orthonormal_and_never_degenerate():
@@ -220,3 +227,23 @@ def test08_view_frame_is_orthonormal_and_never_degenerate():
     # Away from the poles, "up" leans towards +y like a lookat with up = (0, 1, 0).
     side = np.abs(f[:, 1]) < 0.9
     assert np.all(up[side, 1] > 0)
+
+
+def test09_unresolved_instance_groups_still_count(write_scene, ply, monkeypatch):
+    """If the group of an instance cannot be found, the instance keeps its area, indexed by
+    primitive, and adds no topology."""
+    from mi_npr.viewpoint import idbuffer
+
+    inst = _scene(write_scene, INSTANCED.format(ply=ply), "inst.xml")
+    good = polygons(inst)
+    monkeypatch.setattr(idbuffer, "_group_children", lambda scene: {})
+    blind = polygons(inst)
+    assert blind.n == good.n and list(blind.span) == list(good.span)
+    origins = 3.0 * np.eye(3)
+    a_good = areas(inst, origins, (0, 0, 0), 50.0, (24, 24), polys=good)
+    a_blind = areas(inst, origins, (0, 0, 0), 50.0, (24, 24), polys=blind)
+    np.testing.assert_array_equal(a_good[:, 0], a_blind[:, 0])
+    for oid in (1, 2):
+        lo, hi = int(good.base[oid]) + 1, int(good.base[oid] + good.span[oid]) + 1
+        np.testing.assert_array_equal(a_good[:, lo:hi].sum(1), a_blind[:, lo:hi].sum(1))
+    assert np.all(blind.topology().polygon_vertices == -1)

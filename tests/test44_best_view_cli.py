@@ -16,6 +16,7 @@ from mi_npr import cli
 from mi_npr.viewpoint import entropy, pb, polygons
 
 from .helpers import run_cli
+from .test41_viewpoint_idbuffer import gbuffer_areas
 
 BODY = (
     '<shape type="cube" id="box"><transform name="to_world"><scale x="0.8" y="0.5" z="0.6"/>'
@@ -49,22 +50,6 @@ def _run(capsys, *args):
     return code, out.out, out.err
 
 
-def areas_from_gbuffer(scene, gb):
-    """Per-polygon pixel counts of a G-buffer, numbered like mi_npr.viewpoint (no instances)."""
-    table = mi_npr.object_table(scene)
-    base, n = {}, 0
-    for oid in sorted(table.shapes):
-        s = table.shapes[oid]
-        base[oid] = n
-        n += s.face_count() if s.is_mesh() else 1
-    oid, prim = gb["object_id"].ravel(), gb["prim_id"].ravel()
-    poly = np.zeros(oid.shape, np.int64)
-    for k, s in table.shapes.items():
-        sel = oid == k
-        poly[sel] = base[k] + (prim[sel] if s.is_mesh() else 0) + 1
-    return np.bincount(poly, minlength=n + 1)
-
-
 @pytest.mark.parametrize("measure", ["entropy", "pb"])
 def test01_writes_a_sensor_that_reproduces_the_view(scene_path, tmp_path, capsys, measure):
     out = tmp_path / "out"
@@ -94,7 +79,7 @@ def test01_writes_a_sensor_that_reproduces_the_view(scene_path, tmp_path, capsys
     # Rendered from it, the scene's ID buffer gives the quality the search reported.
     scene = mi_npr.load_scene(scene_path)
     gb = mi_npr.render_gbuffer(scene, sensor)
-    a = areas_from_gbuffer(scene, gb)
+    a = gbuffer_areas(scene, gb)
     assert len(a) == polygons(scene).n + 1
     q = {"entropy": entropy, "pb": pb}[measure](a)
     assert q == pytest.approx(info["quality"], rel=1e-9)

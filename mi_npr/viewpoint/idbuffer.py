@@ -6,6 +6,11 @@
 ``cylinder``, ``disk``, curves, ...) count as one polygon per shape. An ``instance`` owns the
 polygons of every shape in its ``shapegroup`` (each instance separately, as it is a separate
 object on screen): ``n`` counts them once per instance. ``n`` (eq. 1) is the total of all that.
+Mitsuba's Python API links an instance to its group only through the instance's description
+(``ShapeGroup[name = "..."]``) and the group to its shapes only through the scene's parameter
+hierarchy (``mi.traverse(scene).hierarchy``): both are used. An instance whose group cannot be
+found that way still works: it counts ``effective_primitive_count()`` polygons, indexed by
+primitive, and adds no curvature to eq. 2.
 
 **Cameras.** Every viewpoint is a pinhole camera at ``origin`` looking at ``target``, with the
 horizontal field of view ``fov`` (degrees) and a ``width x height`` image, oriented like
@@ -111,8 +116,17 @@ def _group_children(scene: mi.Scene) -> dict[str, list[Any]]:
     return groups
 
 
+def require_jit() -> None:
+    """The batched ID buffers are Dr.Jit kernels: scalar variants cannot run them."""
+    if not dr.is_jit_v(mi.Float):
+        raise ParameterError(
+            f"viewpoint quality needs a JIT variant (llvm_ad_rgb, cuda_ad_rgb), not {mi.variant()}"
+        )
+
+
 def polygons(scene: mi.Scene) -> Polygons:
     """Number the polygons of ``scene`` (see the module docstring)."""
+    require_jit()
     table = object_table(scene)
     groups: dict[str, list[Any]] | None = None
     parts: list[_Part] = []
@@ -275,10 +289,7 @@ def areas(
     background, column ``i`` polygon ``i`` (module docstring); each row sums to
     ``width x height``. Batches of viewpoints run as single Dr.Jit launches.
     """
-    if not dr.is_jit_v(mi.Float):
-        raise ParameterError(
-            f"viewpoint quality needs a JIT variant (llvm_ad_rgb, cuda_ad_rgb), not {mi.variant()}"
-        )
+    require_jit()
     o = np.asarray(origins, np.float64).reshape(-1, 3)
     if not np.all(np.isfinite(o)):
         raise ParameterError("origins must be finite")

@@ -51,11 +51,12 @@ TWO_PI = 2.0 * math.pi
 
 
 def _check(areas: np.ndarray) -> np.ndarray:
-    a = np.asarray(areas, dtype=np.float64)
+    raw = np.asarray(areas)
+    a = raw.astype(np.float64, copy=False)
     if a.ndim < 1 or a.shape[-1] < 1:
         raise ParameterError(f"areas: expected shape (..., n + 1), got {a.shape}")
-    if not np.all(np.isfinite(a)) or np.any(a < 0):
-        raise ParameterError("areas: must be finite and non-negative")
+    if raw.dtype.kind != "u" and (not np.all(np.isfinite(a)) or np.any(a < 0)):
+        raise ParameterError("areas: must be finite and non-negative")  # pixel counts always are
     return a
 
 

@@ -21,7 +21,8 @@ Defaults, where the paper leaves them open:
   A scene without any sensor (built with ``mi.load_dict``) gets square 45 degree views.
 - ``radius``: ``R / sin(phi / 2)`` with ``R`` the bounding-sphere radius and ``phi`` the smaller
   of the horizontal and vertical fields of view: the distance at which the whole bounding
-  sphere just fits in the image (2.61 R for a square 45 degree view).
+  sphere just fits in the image (2.61 R for a square 45 degree view). With a ``target`` away
+  from the sphere's centre, ``R`` grows by that distance, so the scene still fits.
 - ``up``: the scene sensor's up vector, or the world axis least aligned with the view direction
   where it is too close to it (:func:`~mi_npr.viewpoint.idbuffer.view_frame`).
 """
