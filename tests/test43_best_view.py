@@ -115,6 +115,9 @@ def test04_geometry_of_the_result(cube):
     assert bv.radius == pytest.approx(math.sqrt(3) / math.sin(math.radians(20.0)), rel=1e-6)
     np.testing.assert_allclose(bv.target, 0.0, atol=1e-6)
     assert abs(np.dot(bv.up, bv.direction)) < 1e-12 and np.linalg.norm(bv.up) == pytest.approx(1)
+    # The scene's camera is tilted (its up vector is not +y), but the world's up is +y.
+    assert abs(mi_npr.camera_of(cube.sensors()[0]).up[1]) < 0.99
+    np.testing.assert_array_equal(bv.world_up, [0.0, 1.0, 0.0])
     assert bv.size == (32, 32) and bv.fov == pytest.approx(40.0)
     d = bv.to_dict()
     assert d["evaluations"] == 12 and len(d["viewpoints"]) == 12

@@ -23,8 +23,9 @@ Defaults, where the paper leaves them open:
   of the horizontal and vertical fields of view: the distance at which the whole bounding
   sphere just fits in the image (2.61 R for a square 45 degree view). With a ``target`` away
   from the sphere's centre, ``R`` grows by that distance, so the scene still fits.
-- ``up``: the scene sensor's up vector, or the world axis least aligned with the view direction
-  where it is too close to it (:func:`~mi_npr.viewpoint.idbuffer.view_frame`).
+- ``up``: the world axis closest to the scene sensor's up vector (+y for a camera placed with
+  ``lookat up="0, 1, 0"``, however it is tilted), or the world axis least aligned with the view
+  direction where that is too close to it (:func:`~mi_npr.viewpoint.idbuffer.view_frame`).
 """
 
 from __future__ import annotations
@@ -96,6 +97,15 @@ def _bounding_sphere(scene: mi.Scene) -> tuple[np.ndarray, float]:
     return c, r
 
 
+def _nearest_axis(v: np.ndarray) -> np.ndarray:
+    """The signed world axis closest to ``v``: a tilted camera's up vector (0, 0.95, 0.3) means
+    the world's +y is up."""
+    i = int(np.argmax(np.abs(v)))
+    axis = np.zeros(3)
+    axis[i] = 1.0 if v[i] >= 0 else -1.0
+    return axis
+
+
 def viewing(
     scene: mi.Scene,
     target: Sequence[float] | np.ndarray | None = None,
@@ -107,7 +117,7 @@ def viewing(
     """The viewing setup of ``scene`` with the defaults of the module docstring filled in."""
     if scene.sensors() or isinstance(sensor, mi.Sensor):
         cam = camera_of(sensor_of(scene, sensor))
-        aspect, up = cam.resolution[0] / cam.resolution[1], cam.up
+        aspect, up = cam.resolution[0] / cam.resolution[1], _nearest_axis(cam.up)
         fov = float(cam.fov) if fov is None and cam.fov is not None else fov
     else:  # a scene built in Python may have no sensor: a square view, +y up
         aspect, up = 1.0, np.array([0.0, 1.0, 0.0])
