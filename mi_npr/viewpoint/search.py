@@ -31,6 +31,7 @@ Defaults, where the paper leaves them open:
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -137,7 +138,11 @@ def viewing(
         half = min(math.atan(tx), math.atan(tx * size[1] / size[0]))
         R += float(np.linalg.norm(tgt - centre))  # a target off-centre: still see everything
         radius = R / math.sin(half) if R > 0 else 1.0
-    elif not (isinstance(radius, (int, float)) and math.isfinite(radius) and radius > 0):
+    elif (
+        isinstance(radius, bool)
+        or not isinstance(radius, numbers.Real)
+        or not (math.isfinite(radius) and radius > 0)
+    ):
         raise ParameterError(f"radius = {radius!r}: must be a positive number")
     return Viewing(tgt, float(radius), fov, size, up, idbuffer.polygons(scene))
 
