@@ -48,10 +48,17 @@ def _positive(text: str) -> int:
     return n
 
 
-def _scene_batch_arguments(cmd: argparse.ArgumentParser) -> None:
-    """The arguments of commands that render a batch of scenes into OUTDIR."""
-    cmd.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
-    cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+def _non_negative(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a non-negative integer")
+    return n
+
+
+def _define_argument(cmd: argparse.ArgumentParser) -> None:
     cmd.add_argument(
         "-D",
         dest="defines",
@@ -61,6 +68,13 @@ def _scene_batch_arguments(cmd: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE",
         help="set an XML <default> (repeatable), e.g. -D width=320 -D spp=16",
     )
+
+
+def _scene_batch_arguments(cmd: argparse.ArgumentParser) -> None:
+    """The arguments of commands that render a batch of scenes into OUTDIR."""
+    cmd.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
+    cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    _define_argument(cmd)
     cmd.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
     cmd.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
     cmd.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -109,6 +123,25 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="N",
         help="levels of the ray trees (default: the scene's npr_raytree max_depth, else 3)",
     )
+
+    b = sub.add_parser(
+        "best-view",
+        help="find a scene's best viewpoint (paper eqs. 1-3) and write it as a Mitsuba sensor",
+    )
+    b.add_argument("scene", metavar="SCENE.xml", help="Mitsuba XML scene")
+    b.add_argument(
+        "--measure",
+        required=True,
+        choices=["pb", "curvature", "entropy"],
+        help="viewpoint quality: pb (eq. 1), curvature (eq. 2) or entropy (eq. 3)",
+    )
+    b.add_argument(
+        "--depth", type=_non_negative, default=4, help="subdivisions of the best triangle (4)"
+    )
+    b.add_argument("--res", type=_positive, default=128, help="ID buffer size, long side (128)")
+    b.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    _define_argument(b)
+    b.add_argument("--json", action="store_true", help="print the result as JSON")
 
     i = sub.add_parser("info", help="list the layers, object table and camera of an EXR")
     i.add_argument("file", metavar="FILE.exr")
@@ -201,6 +234,25 @@ def _report(results: list) -> int:
     return 1 if failed else 0
 
 
+def _cmd_best_view(args: argparse.Namespace) -> int:
+    from .viewpoint import write_best_view
+
+    best, outputs = write_best_view(
+        args.scene, args.output, args.measure, args.depth, args.res, **dict(args.defines)
+    )
+    if args.json:
+        info = {"scene": args.scene, **best.to_dict()}
+        info["outputs"] = {k: str(v) for k, v in outputs.items()}
+        print(json.dumps(info, indent=2))
+        return 0
+    o = ", ".join(f"{v:.4g}" for v in best.origin)
+    print(f"{args.scene}: best view ({args.measure}) at ({o}), quality {best.quality:.6g}")
+    print(f"  {best.evaluations} viewpoints rated at {best.size[0]}x{best.size[1]}")
+    for path in outputs.values():
+        print(f"  wrote {path}")
+    return 0
+
+
 def _cmd_info(args: argparse.Namespace) -> int:
     import mi_npr
 
@@ -234,6 +286,7 @@ COMMANDS = {
     "render": _cmd_render,
     "contours": _cmd_contours,
     "raytree": _cmd_raytree,
+    "best-view": _cmd_best_view,
     "info": _cmd_info,
 }
 

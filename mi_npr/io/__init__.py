@@ -10,6 +10,7 @@ from ._atomic import atomic_output, check_writable_dir
 from .exr import describe, read_exr, write_exr
 from .png import linear_to_srgb, to_rgb8, write_png
 from .svg import svg_document, write_contour_outputs, write_svg
+from .text import write_text
 
 
 def write_outputs(gb: GBuffer, outdir: str | os.PathLike[str], stem: str) -> list[Path]:
@@ -31,4 +32,5 @@ __all__ = [
     "write_outputs",
     "write_png",
     "write_svg",
+    "write_text",
 ]

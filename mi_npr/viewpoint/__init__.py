@@ -1,0 +1,43 @@
+"""Scene understanding: viewpoint quality (eqs. 1-3 of the paper) and best-view search.
+
+- :mod:`~mi_npr.viewpoint.measures`: eqs. 1-3 as pure functions of per-polygon projected areas,
+  and the angle defects of a mesh (eq. 2);
+- :mod:`~mi_npr.viewpoint.idbuffer`: the scene's polygons and the ID buffers of many viewpoints,
+  rendered and counted in one Dr.Jit launch;
+- :mod:`~mi_npr.viewpoint.search`: :func:`quality`, :func:`best_view` (the 8 spherical
+  triangles and their recursive subdivision), :func:`quality_map`;
+- :mod:`~mi_npr.viewpoint.camera`: the best view as a Mitsuba ``<sensor>`` and the picture of
+  the viewing sphere coloured by quality;
+- :mod:`~mi_npr.viewpoint.outputs`: the files ``mi-npr best-view`` writes.
+
+>>> bv = mi_npr.viewpoint.best_view("scenes_xml/scene4.xml", "entropy")  # doctest: +SKIP
+>>> mi_npr.viewpoint.sensor_xml(bv, scene)                               # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from .camera import sensor_xml, sphere_image
+from .idbuffer import areas, polygons, view_frame
+from .measures import MEASURES, curvature, entropy, pb, vertex_curvature
+from .outputs import write_best_view
+from .search import BestView, best_view, fibonacci_sphere, qualities, quality, quality_map
+
+__all__ = [
+    "MEASURES",
+    "BestView",
+    "areas",
+    "best_view",
+    "curvature",
+    "entropy",
+    "fibonacci_sphere",
+    "pb",
+    "polygons",
+    "qualities",
+    "quality",
+    "quality_map",
+    "sensor_xml",
+    "sphere_image",
+    "vertex_curvature",
+    "view_frame",
+    "write_best_view",
+]

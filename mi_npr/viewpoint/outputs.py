@@ -1,0 +1,77 @@
+"""What ``mi-npr best-view`` writes: the camera, a render from it, the quality sphere.
+
+The files, in ``outdir``: ``<stem>_best_view.xml`` (the best view as a Mitsuba sensor,
+:func:`~mi_npr.viewpoint.sensor_xml`), ``<stem>_best_view.png`` (the scene rendered from that
+sensor, read back from the written file, with the scene's own integrator: what a user gets who
+puts the sensor in the scene) and ``<stem>_quality_sphere.png`` (the viewing sphere coloured by
+quality, :func:`~mi_npr.viewpoint.sphere_image`; the left disc faces the scene's own camera).
+Every file goes through :mod:`mi_npr.io` (temporary name, then rename).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import io
+from ..errors import SceneError
+from ..render import render
+from ..scene import camera_of, load_scene, sensor_of
+from .camera import sensor_xml, sphere_image
+from .measures import check_measure
+from .search import BestView, check_shapes, sample_sphere, search, viewing
+
+#: Viewpoints rated for the quality sphere picture (Fibonacci lattice).
+SPHERE_SAMPLES = 256
+
+
+def write_best_view(
+    scene_path: str | os.PathLike[str],
+    outdir: str | os.PathLike[str],
+    measure: str,
+    depth: int = 4,
+    res: int = 128,
+    *,
+    stem: str | None = None,
+    samples: int = SPHERE_SAMPLES,
+    seed: int = 0,
+    **defines: Any,
+) -> tuple[BestView, dict[str, Path]]:
+    """Search the best view of the XML scene and write the three files (module docstring).
+
+    ``defines`` fill the XML's ``<default>``s (the written film is the film they give). Returns
+    the :class:`BestView` and the written paths by kind (``sensor``, ``render``, ``sphere``).
+    """
+    check_measure(measure)
+    scene = load_scene(scene_path, **defines)
+    try:
+        check_shapes(scene)
+    except SceneError as e:
+        raise SceneError(f"{scene_path}: {e}") from None
+    d = io.check_writable_dir(outdir, create=True)
+    stem = stem or Path(scene_path).stem
+    view = viewing(scene, res=res)
+    best = search(scene, view, measure, depth)
+    out: dict[str, Path] = {}
+    out["sensor"] = io.write_text(d / f"{stem}_best_view.xml", sensor_xml(best, scene))
+    sensor = load_scene(out["sensor"]).sensors()[0]
+    gb = render(scene, sensor=sensor, seed=seed)
+    out["render"] = io.write_png(d / f"{stem}_best_view.png", gb.beauty)
+    dirs, q = sample_sphere(scene, view, measure, samples)
+    front = camera_of(sensor_of(scene)).origin - view.target if scene.sensors() else None
+    if front is not None and not np.any(front):
+        front = None
+    picture = sphere_image(
+        dirs,
+        q,
+        best.direction,
+        best.viewpoints - best.target,
+        front,
+        title=f"{stem}: {measure}, best {best.quality:.4g} (red), evaluated (white)",
+        labels=("seen from the scene's camera", "opposite side"),
+    )
+    out["sphere"] = io.write_png(d / f"{stem}_quality_sphere.png", picture, linear=False)
+    return best, out

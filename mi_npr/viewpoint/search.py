@@ -1,0 +1,368 @@
+"""Best-view search on the viewing sphere (section 2.1 of the paper, Figs. 1-2).
+
+The scene's bounding sphere sits at the centre of a viewing sphere of radius ``radius`` whose
+surface holds every candidate viewpoint; cameras look at the centre. The sphere is cut into 8
+spherical triangles whose vertices are the 6 points on the +-x, +-y, +-z axes (Fig. 1). The 6
+vertices are rated (one batched evaluation), and the triangle whose vertices have the highest
+*summed* quality is kept. Then, ``depth`` times (Fig. 2), the kept triangle is split into 4 by its
+edge midpoints pushed back onto the sphere, the 3 new midpoints are rated (one batch), and the
+child triangle with the highest vertex sum is kept. A search therefore makes ``6 + 3 depth``
+evaluations, and its result is the best viewpoint evaluated (the best vertex of the final
+triangle, or an earlier vertex if one was better: the sum picks the region, the maximum the view).
+Ties go to the first candidate in the order above (+x, -x, +y, -y, +z, -z; octants in the order
+of :data:`OCTANTS`).
+
+Defaults, where the paper leaves them open:
+
+- ``target``: the centre of the scene's bounding sphere (Mitsuba's ``bbox().bounding_sphere()``).
+- ``fov``: the horizontal field of view of the scene's sensor (``sensor``-th, 45 degrees if it
+  has none, e.g. an orthographic one); the ID buffers have the sensor film's aspect ratio and
+  ``res`` pixels along its longer side, so the quality of the written camera is the one rated.
+  A scene without any sensor (built with ``mi.load_dict``) gets square 45 degree views.
+- ``radius``: ``R / sin(phi / 2)`` with ``R`` the bounding-sphere radius and ``phi`` the smaller
+  of the horizontal and vertical fields of view: the distance at which the whole bounding
+  sphere just fits in the image (2.61 R for a square 45 degree view). With a ``target`` away
+  from the sphere's centre, ``R`` grows by that distance, so the scene still fits.
+- ``up``: the world axis closest to the scene sensor's up vector (+y for a camera placed with
+  ``lookat up="0, 1, 0"``, however it is tilted), or the world axis least aligned with the view
+  direction where that is too close to it (:func:`~mi_npr.viewpoint.idbuffer.view_frame`).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import mitsuba as mi
+import numpy as np
+
+from ..errors import ParameterError, SceneError
+from ..scene import camera_of, load_scene, sensor_of
+from . import idbuffer
+from .measures import MEASURES, check_measure
+
+#: Default horizontal field of view (degrees) when the scene's sensor has none.
+DEFAULT_FOV = 45.0
+
+AXES = np.array(
+    [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=np.float64
+)
+#: The 8 spherical triangles of Fig. 1 as indices into :data:`AXES` (one per octant, wound
+#: counter-clockwise seen from outside the sphere).
+OCTANTS = np.array(
+    [[0, 2, 4], [0, 5, 2], [0, 4, 3], [0, 3, 5], [1, 4, 2], [1, 2, 5], [1, 3, 4], [1, 5, 3]]
+)
+
+SceneLike = str | os.PathLike[str] | mi.Scene
+
+
+@dataclass(frozen=True)
+class Viewing:
+    """How viewpoints are rendered for one scene: the sphere, the camera, the polygons."""
+
+    target: np.ndarray
+    radius: float
+    fov: float
+    size: tuple[int, int]
+    up: np.ndarray
+    polygons: idbuffer.Polygons = field(repr=False)
+
+    def origins(self, directions: np.ndarray) -> np.ndarray:
+        d = np.asarray(directions, np.float64).reshape(-1, 3)
+        d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+        return self.target + self.radius * d
+
+    def areas(self, scene: mi.Scene, origins: np.ndarray) -> np.ndarray:
+        return idbuffer.areas(
+            scene, origins, self.target, self.fov, self.size, self.up, self.polygons
+        )
+
+    def qualities(self, scene: mi.Scene, origins: np.ndarray, measure: str) -> np.ndarray:
+        a = self.areas(scene, origins)
+        topo = self.polygons.topology() if measure == "curvature" else None
+        return np.asarray(MEASURES[measure](a, topo), np.float64).reshape(-1)
+
+
+def _bounding_sphere(scene: mi.Scene) -> tuple[np.ndarray, float]:
+    if not scene.shapes():
+        return np.zeros(3), 0.0
+    bs = scene.bbox().bounding_sphere()
+    c = np.asarray(bs.center, np.float64).ravel()[:3]
+    r = float(np.asarray(bs.radius).ravel()[0])
+    if not (np.all(np.isfinite(c)) and math.isfinite(r)):
+        raise SceneError("the scene's bounding box is not finite: give target and radius")
+    return c, r
+
+
+def _nearest_axis(v: np.ndarray) -> np.ndarray:
+    """The signed world axis closest to ``v``: a tilted camera's up vector (0, 0.95, 0.3) means
+    the world's +y is up."""
+    i = int(np.argmax(np.abs(v)))
+    axis = np.zeros(3)
+    axis[i] = 1.0 if v[i] >= 0 else -1.0
+    return axis
+
+
+def viewing(
+    scene: mi.Scene,
+    target: Sequence[float] | np.ndarray | None = None,
+    radius: float | None = None,
+    res: int = 128,
+    fov: float | None = None,
+    sensor: int | mi.Sensor = 0,
+) -> Viewing:
+    """The viewing setup of ``scene`` with the defaults of the module docstring filled in."""
+    if scene.sensors() or isinstance(sensor, mi.Sensor):
+        cam = camera_of(sensor_of(scene, sensor))
+        aspect, up = cam.resolution[0] / cam.resolution[1], _nearest_axis(cam.up)
+        fov = float(cam.fov) if fov is None and cam.fov is not None else fov
+    else:  # a scene built in Python may have no sensor: a square view, +y up
+        aspect, up = 1.0, np.array([0.0, 1.0, 0.0])
+    fov = DEFAULT_FOV if fov is None else float(fov)
+    if not 0.0 < fov < 180.0:
+        raise ParameterError(f"fov = {fov!r}: must be in (0, 180) degrees")
+    size = idbuffer.image_size(res, aspect)
+    centre, R = _bounding_sphere(scene)
+    if target is None:
+        tgt = centre
+    else:
+        tgt = np.asarray(target, np.float64).reshape(-1)
+        if tgt.shape != (3,) or not np.all(np.isfinite(tgt)):
+            raise ParameterError(f"target = {target!r}: expected 3 finite numbers")
+    if radius is None:
+        tx = math.tan(math.radians(fov) / 2.0)
+        half = min(math.atan(tx), math.atan(tx * size[1] / size[0]))
+        R += float(np.linalg.norm(tgt - centre))  # a target off-centre: still see everything
+        radius = R / math.sin(half) if R > 0 else 1.0
+    elif (
+        isinstance(radius, bool)
+        or not isinstance(radius, numbers.Real)
+        or not (math.isfinite(radius) and radius > 0)
+    ):
+        raise ParameterError(f"radius = {radius!r}: must be a positive number")
+    return Viewing(tgt, float(radius), fov, size, up, idbuffer.polygons(scene))
+
+
+def qualities(
+    scene: SceneLike,
+    origins: Sequence[Sequence[float]] | np.ndarray,
+    target: Sequence[float] | np.ndarray | None = None,
+    measure: str = "entropy",
+    res: int = 128,
+    *,
+    fov: float | None = None,
+    sensor: int = 0,
+) -> np.ndarray:
+    """:func:`quality` of many viewpoints at once (batched Dr.Jit launches): float64 (V,)."""
+    check_measure(measure)
+    scene = load_scene(scene)
+    view = viewing(scene, target, 1.0, res, fov, sensor)
+    return view.qualities(scene, np.asarray(origins, np.float64).reshape(-1, 3), measure)
+
+
+def quality(
+    scene: SceneLike,
+    origin: Sequence[float] | np.ndarray,
+    target: Sequence[float] | np.ndarray | None = None,
+    measure: str = "entropy",
+    res: int = 128,
+    *,
+    fov: float | None = None,
+    sensor: int = 0,
+) -> float:
+    """Quality of the viewpoint at ``origin`` looking at ``target`` (eq. 1, 2 or 3).
+
+    ``measure``: ``"pb"`` (eq. 1), ``"curvature"`` (eq. 2) or ``"entropy"`` (eq. 3), computed
+    from the areas of an ``res``-pixel ID buffer (see :mod:`mi_npr.viewpoint.measures` for the
+    exact definitions). ``target`` defaults to the centre of the scene's bounding sphere; ``fov``
+    and the image's aspect ratio come from the scene's sensor. A viewpoint that sees nothing has
+    quality 0.
+
+    >>> from mi_npr.viewpoint import quality
+    >>> quality("scenes_xml/scene3.xml", [4, 3, -4], measure="pb")  # doctest: +SKIP
+    """
+    return float(qualities(scene, [origin], target, measure, res, fov=fov, sensor=sensor)[0])
+
+
+@dataclass(frozen=True)
+class BestView:
+    """The result of :func:`best_view`: a camera pose, its quality and the whole search.
+
+    ``origin``/``target``/``up`` is a ``lookat`` (``up`` orthogonal to the view direction);
+    ``viewpoints`` (E, 3) and ``qualities`` (E,) list every evaluated viewpoint in evaluation
+    order (``evaluations == E``); ``triangle`` (3, 3) holds the unit directions of the final
+    spherical triangle; ``size`` is the ID buffer's (width, height); ``world_up`` the preferred
+    up direction every viewpoint's frame was built from.
+    """
+
+    origin: np.ndarray
+    target: np.ndarray
+    up: np.ndarray
+    quality: float
+    evaluations: int
+    viewpoints: np.ndarray
+    qualities: np.ndarray
+    measure: str
+    radius: float
+    fov: float
+    size: tuple[int, int]
+    depth: int
+    triangle: np.ndarray
+    world_up: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0]))
+
+    @property
+    def direction(self) -> np.ndarray:
+        """Unit vector from the target to the viewpoint."""
+        d = self.origin - self.target
+        return d / np.linalg.norm(d)
+
+    def view(self, i: int) -> BestView:
+        """The ``i``-th evaluated viewpoint as a camera (same search record, another pose)."""
+        o = self.viewpoints[i]
+        _, _, up = idbuffer.view_frame(o, self.target, self.world_up)
+        return replace(self, origin=o.copy(), up=up, quality=float(self.qualities[i]))
+
+    @property
+    def worst(self) -> BestView:
+        """The worst evaluated viewpoint as a camera (the first one on ties): ``sensor_xml``
+        writes it like the best."""
+        return self.view(int(np.argmin(self.qualities)))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description (what ``mi-npr best-view --json`` prints)."""
+        return {
+            "measure": self.measure,
+            "quality": self.quality,
+            "origin": self.origin.tolist(),
+            "target": self.target.tolist(),
+            "up": self.up.tolist(),
+            "fov": self.fov,
+            "radius": self.radius,
+            "depth": self.depth,
+            "res": list(self.size),
+            "evaluations": self.evaluations,
+            "viewpoints": [
+                {"origin": o.tolist(), "quality": float(q)}
+                for o, q in zip(self.viewpoints, self.qualities, strict=True)
+            ],
+        }
+
+
+def _midpoint(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    m = a + b
+    return m / np.linalg.norm(m)
+
+
+def best_view(
+    scene: SceneLike,
+    measure: str = "entropy",
+    depth: int = 4,
+    res: int = 128,
+    radius: float | None = None,
+    *,
+    target: Sequence[float] | np.ndarray | None = None,
+    fov: float | None = None,
+    sensor: int = 0,
+) -> BestView:
+    """Search the viewing sphere for the best viewpoint under ``measure`` (module docstring).
+
+    ``depth`` subdivisions of the best spherical triangle follow the first 8-triangle split; each
+    level is one batched evaluation of 3 viewpoints, the first level one of 6.
+
+    >>> from mi_npr.viewpoint import best_view
+    >>> bv = best_view("scenes_xml/scene4.xml", "entropy", depth=3)  # doctest: +SKIP
+    >>> bv.origin, bv.quality, bv.evaluations                         # doctest: +SKIP
+    """
+    check_measure(measure)
+    if isinstance(depth, bool) or not isinstance(depth, (int, np.integer)) or depth < 0:
+        raise ParameterError(f"depth = {depth!r}: must be a non-negative integer")
+    scene = load_scene(scene)
+    check_shapes(scene)
+    return search(scene, viewing(scene, target, radius, res, fov, sensor), measure, int(depth))
+
+
+def check_shapes(scene: mi.Scene) -> None:
+    """A search needs something to look at."""
+    if not scene.shapes():
+        raise SceneError("the scene has no shapes: there is nothing to look at")
+
+
+def search(scene: mi.Scene, view: Viewing, measure: str, depth: int) -> BestView:
+    """The search of :func:`best_view` for a prepared :class:`Viewing` (module docstring)."""
+    dirs: list[np.ndarray] = list(AXES)
+    q: list[float] = list(view.qualities(scene, view.origins(AXES), measure))
+    sums = [sum(q[i] for i in tri) for tri in OCTANTS]
+    tri = [int(i) for i in OCTANTS[int(np.argmax(sums))]]
+    for _ in range(depth):
+        a, b, c = tri
+        mids = np.array(
+            [_midpoint(dirs[a], dirs[b]), _midpoint(dirs[b], dirs[c]), _midpoint(dirs[c], dirs[a])]
+        )
+        qm = view.qualities(scene, view.origins(mids), measure)
+        ab, bc, ca = len(dirs), len(dirs) + 1, len(dirs) + 2
+        dirs.extend(mids)
+        q.extend(qm)
+        children = [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+        tri = children[int(np.argmax([sum(q[i] for i in ch) for ch in children]))]
+    qs = np.asarray(q, np.float64)
+    best = int(np.argmax(qs))
+    origins = view.origins(np.asarray(dirs))
+    _, _, up = idbuffer.view_frame(origins[best], view.target, view.up)
+    return BestView(
+        origin=origins[best],
+        target=view.target.copy(),
+        up=up,
+        quality=float(qs[best]),
+        evaluations=len(qs),
+        viewpoints=origins,
+        qualities=qs,
+        measure=measure,
+        radius=view.radius,
+        fov=view.fov,
+        size=view.size,
+        depth=depth,
+        triangle=np.asarray([dirs[i] for i in tri]),
+        world_up=np.asarray(view.up, np.float64),
+    )
+
+
+def fibonacci_sphere(n: int) -> np.ndarray:
+    """``n`` nearly evenly spread unit vectors (a Fibonacci lattice), float64 (n, 3)."""
+    if n < 1:
+        raise ParameterError(f"samples = {n!r}: must be a positive integer")
+    i = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * i / n
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    return np.stack([r * np.cos(phi), z, r * np.sin(phi)], axis=-1)  # y is the pole axis
+
+
+def quality_map(
+    scene: SceneLike,
+    measure: str = "entropy",
+    samples: int = 256,
+    res: int = 64,
+    radius: float | None = None,
+    *,
+    target: Sequence[float] | np.ndarray | None = None,
+    fov: float | None = None,
+    sensor: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The quality over the whole viewing sphere: ``(directions (S, 3), qualities (S,))`` at
+    ``samples`` Fibonacci-lattice directions, rated in batched launches (for the sphere picture
+    and plots; same setup as :func:`best_view`)."""
+    check_measure(measure)
+    scene = load_scene(scene)
+    return sample_sphere(scene, viewing(scene, target, radius, res, fov, sensor), measure, samples)
+
+
+def sample_sphere(
+    scene: mi.Scene, view: Viewing, measure: str, samples: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`quality_map` for a prepared :class:`Viewing`."""
+    d = fibonacci_sphere(int(samples))
+    return d, view.qualities(scene, view.origins(d), measure)
