@@ -74,27 +74,32 @@ def cold_child(setup: Callable[[str, int, int], Callable[[], Any]], case: str, w
     print(json.dumps({"cold_ms": (time.perf_counter() - t0) * 1e3}))
 
 
-def measure_cold(script: str, case: str, w: int, h: int) -> float:
-    """Run ``script --cold-child case w h`` with an empty Dr.Jit kernel cache; its time in ms."""
+def cold_run(script: str, *args: object) -> dict[str, Any]:
+    """Run ``script --cold-child ARGS`` in a fresh process with an empty Dr.Jit kernel cache
+    (compilation included) and return the JSON object it printed last."""
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, DRJIT_CACHE_DIR=cache)
         out = subprocess.run(
-            [sys.executable, script, "--cold-child", case, str(w), str(h)],
+            [sys.executable, script, "--cold-child", *map(str, args)],
             capture_output=True,
             text=True,
             env=env,
             check=True,
         )
-    return json.loads(out.stdout.strip().splitlines()[-1])["cold_ms"]
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def write_report(name: str, scene: Path, out: Path, **fields: Any) -> Path:
-    """``out/<name>.json``: the machine, versions and ``fields`` (results, repeat, ...)."""
+def measure_cold(script: str, case: str, w: int, h: int) -> float:
+    """The cold time in ms of ``case`` at ``w`` x ``h`` (see :func:`cold_run`)."""
+    return cold_run(script, case, w, h)["cold_ms"]
+
+
+def write_report(name: str, out: Path, **fields: Any) -> Path:
+    """``out/<name>.json``: the machine, versions and ``fields`` (scene, results, ...)."""
     import mi_npr
 
     report = {
         "benchmark": name,
-        "scene": str(scene.relative_to(ROOT)),
         "date": time.strftime("%Y-%m-%dT%H:%M:%S"),
         "machine": {
             "cpu_count": os.cpu_count(),

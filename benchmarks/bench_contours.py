@@ -24,14 +24,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
+
+import _common
 
 HERE = Path(__file__).resolve().parent
 SCENES = ["scene1", "scene2", "scene3", "scene4"]
@@ -94,16 +92,7 @@ def _cold_child(case: str, name: str, w: int, h: int) -> None:
 
 
 def measure_cold(case: str, name: str, w: int, h: int) -> float:
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, DRJIT_CACHE_DIR=cache)
-        out = subprocess.run(
-            [sys.executable, __file__, "--cold-child", case, name, str(w), str(h)],
-            capture_output=True,
-            text=True,
-            env=env,
-            check=True,
-        )
-    return json.loads(out.stdout.strip().splitlines()[-1])["cold_ms"]
+    return _common.cold_run(__file__, case, name, w, h)["cold_ms"]
 
 
 def measure_warm(fn, repeat: int) -> float:
@@ -147,7 +136,6 @@ def main() -> int:
         c, n, w, h = args.cold_child
         _cold_child(c, n, int(w), int(h))
         return 0
-    import mi_npr
 
     w, h = SIZE
     repeat = 5 if args.quick else args.repeat
@@ -181,25 +169,14 @@ def main() -> int:
             f"{r['launches']} batches, {r['contours']} contours; stages (ms) "
             + ", ".join(f"{k} {v:.1f}" for k, v in r["stage_ms"].items())
         )
-    report = {
-        "benchmark": "bench_contours",
-        "scenes": [f"scenes_xml/{n}.xml" for n in SCENES],
-        "date": time.strftime("%Y-%m-%dT%H:%M:%S"),
-        "machine": {
-            "cpu_count": os.cpu_count(),
-            "platform": platform.platform(),
-            "python": platform.python_version(),
-        },
-        "mi_npr": mi_npr.__version__,
-        "variant": mi_npr.mi.variant(),
-        "llvm": mi_npr.LLVM.chosen.describe() if mi_npr.LLVM and mi_npr.LLVM.chosen else None,
-        "repeat": repeat,
-        "targets": {"trace_warm_ms": 5.0, "ray_fraction": 0.2},
-        "results": rows,
-    }
-    args.out.mkdir(parents=True, exist_ok=True)
-    path = args.out / "bench_contours.json"
-    path.write_text(json.dumps(report, indent=2))
+    path = _common.write_report(
+        "bench_contours",
+        args.out,
+        scenes=[f"scenes_xml/{n}.xml" for n in SCENES],
+        repeat=repeat,
+        targets={"trace_warm_ms": 5.0, "ray_fraction": 0.2},
+        results=rows,
+    )
     print(f"\nwrote {path}")
     return 0
 

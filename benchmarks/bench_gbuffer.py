@@ -95,7 +95,13 @@ def main() -> int:
                 f"  ratio vs {anchor:<13}{res[f'ratio_warm_vs_{anchor}']:>10.2f}"
                 f"{res[f'ratio_cold_vs_{anchor}']:>10.2f}"
             )
-    path = _common.write_report("bench_gbuffer", SCENE, args.out, repeat=repeat, results=rows)
+    path = _common.write_report(
+        "bench_gbuffer",
+        args.out,
+        scene=str(SCENE.relative_to(_common.ROOT)),
+        repeat=repeat,
+        results=rows,
+    )
     print(f"\nwrote {path}")
     return 0
 

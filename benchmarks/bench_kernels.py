@@ -26,15 +26,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+import _common
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
@@ -132,13 +130,7 @@ def _cold_child(case: str, data: str, w: int, h: int, threads: int) -> None:
 
 
 def measure_cold(case: str, data: Path, w: int, h: int, threads: int) -> dict:
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, DRJIT_CACHE_DIR=cache)
-        args = [sys.executable, __file__, "--cold-child", case, str(data), str(w), str(h)]
-        out = subprocess.run(
-            [*args, "--threads", str(threads)], capture_output=True, text=True, env=env, check=True
-        )
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return _common.cold_run(__file__, case, data, w, h, "--threads", threads)
 
 
 def measure_warm(data: Path, w: int, h: int, threads: int, repeat: int) -> dict:
@@ -191,7 +183,6 @@ def main() -> int:
         case, data, w, h = args.cold_child
         _cold_child(case, data, int(w), int(h), args.threads)
         return 0
-    import mi_npr
 
     sizes = SIZES[:1] if args.quick else SIZES
     repeat = 5 if args.quick else args.repeat
@@ -232,27 +223,17 @@ def main() -> int:
     for k, v in targets.items():
         verdict = "ok" if v <= TARGETS[k] else "MISSED"
         print(f"  {k:<24}{v:>10.2f}  (target <= {TARGETS[k]:g}) {verdict}")
-    report = {
-        "benchmark": "bench_kernels",
-        "scene": str(SCENE.relative_to(HERE.parent)),
-        "chain": "normalize -> selective dilation 3x3 -> eq. 5.1 (c=40, t=1) -> eq. 5.2 (t0=0.5) "
+    path = _common.write_report(
+        "bench_kernels",
+        args.out,
+        scene=str(SCENE.relative_to(_common.ROOT)),
+        chain="normalize -> selective dilation 3x3 -> eq. 5.1 (c=40, t=1) -> eq. 5.2 (t0=0.5) "
         "-> ID edges",
-        "date": time.strftime("%Y-%m-%dT%H:%M:%S"),
-        "machine": {
-            "cpu_count": os.cpu_count(),
-            "platform": platform.platform(),
-            "python": platform.python_version(),
-        },
-        "mi_npr": mi_npr.__version__,
-        "llvm": mi_npr.LLVM.chosen.describe() if mi_npr.LLVM and mi_npr.LLVM.chosen else None,
-        "threads": args.threads,
-        "repeat": repeat,
-        "targets": {k: {"value": v, "target": TARGETS[k]} for k, v in targets.items()},
-        "results": rows,
-    }
-    args.out.mkdir(parents=True, exist_ok=True)
-    path = args.out / "bench_kernels.json"
-    path.write_text(json.dumps(report, indent=2))
+        threads=args.threads,
+        repeat=repeat,
+        targets={k: {"value": v, "target": TARGETS[k]} for k, v in targets.items()},
+        results=rows,
+    )
     print(f"\nwrote {path}")
     return 0
 

@@ -102,8 +102,8 @@ def main() -> int:
         )
     path = _common.write_report(
         "bench_raytree",
-        SCENE,
         args.out,
+        scene=str(SCENE.relative_to(_common.ROOT)),
         max_depth=3,
         repeat=repeat,
         target="npr_raytree warm <= 3x aov",

@@ -27,15 +27,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+import _common
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
@@ -134,16 +132,7 @@ def _cold_child(case: str, measure: str) -> None:
 
 
 def measure_cold(case: str, measure: str) -> float:
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, DRJIT_CACHE_DIR=cache)
-        out = subprocess.run(
-            [sys.executable, __file__, "--cold-child", case, measure],
-            capture_output=True,
-            text=True,
-            env=env,
-            check=True,
-        )
-    return json.loads(out.stdout.strip().splitlines()[-1])["cold_ms"]
+    return _common.cold_run(__file__, case, measure)["cold_ms"]
 
 
 def measure_warm(case: str, measure: str, repeat: int) -> tuple[float, int]:
@@ -165,7 +154,6 @@ def main() -> int:
     if args.cold_child:
         _cold_child(*args.cold_child)
         return 0
-    import mi_npr
 
     repeat = 3 if args.quick else args.repeat
     res: dict = {}
@@ -193,27 +181,16 @@ def main() -> int:
         key = f"ratio_{mode}_best_view_vs_loop"
         if key in res:
             print(f"  ratio best_view / loop ({mode}): {res[key]:.2f}")
-    report = {
-        "benchmark": "bench_viewpoint",
-        "mesh": "bumpy uv sphere 100 x 101, 20000 triangles",
-        "depth": DEPTH,
-        "res": RES,
-        "measure": args.measure,
-        "date": time.strftime("%Y-%m-%dT%H:%M:%S"),
-        "machine": {
-            "cpu_count": os.cpu_count(),
-            "platform": platform.platform(),
-            "python": platform.python_version(),
-        },
-        "mi_npr": mi_npr.__version__,
-        "variant": mi_npr.mi.variant(),
-        "llvm": mi_npr.LLVM.chosen.describe() if mi_npr.LLVM and mi_npr.LLVM.chosen else None,
-        "repeat": repeat,
-        "results": res,
-    }
-    args.out.mkdir(parents=True, exist_ok=True)
-    path = args.out / "bench_viewpoint.json"
-    path.write_text(json.dumps(report, indent=2))
+    path = _common.write_report(
+        "bench_viewpoint",
+        args.out,
+        mesh="bumpy uv sphere 100 x 101, 20000 triangles",
+        depth=DEPTH,
+        res=RES,
+        measure=args.measure,
+        repeat=repeat,
+        results=res,
+    )
     print(f"\nwrote {path}")
     return 0
 
