@@ -20,7 +20,6 @@ from .. import layers as L
 from ..compose import raw_beauty, with_overlay
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
-from ..scene import declared_defaults, load_scene
 from .contour import Contour
 from .idmode import check_id_mode, id_map
 from .trace import check_method, contour_layer, trace
@@ -95,12 +94,9 @@ def render_contours(
     ``spp`` sets the beauty's samples per pixel (and the XML's ``spp`` default when it declares
     one, like :func:`mi_npr.render`); ``defines`` fill the XML's ``<default>``s.
     """
-    from ..render import render
+    from ..render import prepare, render
 
-    source = os.fspath(scene) if isinstance(scene, (str, os.PathLike)) else None
-    if spp is not None and source is not None and "spp" in declared_defaults(source):
-        defines["spp"] = spp
-    loaded = load_scene(scene, **defines)
+    loaded, spp, source = prepare(scene, spp, defines)
     integrator = loaded.integrator()
     xml = getattr(integrator, "params", {}) if _plugin(integrator) == "npr_contours" else {}
     gb = render(loaded, sensor=sensor, spp=spp, seed=seed)
