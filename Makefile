@@ -13,8 +13,12 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
+# Scene 1 of the paper: G-buffer + depth lines in out/, apparent contours (PNG, SVG) in
+# out/contours/, classified ray-tree edges in out/raytree/.
 demo: $(STAMP)
-	$(VENV)/bin/mi-npr render scenes_xml/scene1.xml -o out
+	$(VENV)/bin/mi-npr render scenes_xml/scene1.xml -o out -D integrator=npr_lines
+	$(VENV)/bin/mi-npr contours scenes_xml/scene1.xml -o out/contours
+	$(VENV)/bin/mi-npr raytree scenes_xml/scene1.xml -o out/raytree
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

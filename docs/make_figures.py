@@ -71,6 +71,7 @@ def contours_panel() -> Path:
     fig.tight_layout()
     path = OUT / "contours_scenes.png"
     fig.savefig(path, dpi=80)
+    return path
 
 
 def raytree_panel() -> Path:

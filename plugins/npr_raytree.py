@@ -28,7 +28,7 @@ over the beauty: real red, reflection blue, refraction green, shadow gray.
 
 Lights (see :mod:`mi_npr.raytree.lights`): point and spot lights are tested at their position,
 area lights at their shape's centre, directional lights along their direction, and an
-environment (``envmap``, ``constant``) counts as one light tested along the surface normal.
+environment (``envmap``, ``constant``) counts as one light shining from its zenith (+y).
 Lights are numbered 1..K by name (their XML ``id``), objects by the stable object ids.
 
 Channels after ``R G B`` (``aov_names()``):

@@ -55,12 +55,13 @@ def _visible_ref(mi, scene, si, ray_d, obj, lt, table) -> list[int]:
     eye = dr.dot(n, -ray_d)
     for k, e in lt.emitters.items():
         kind = lt.kinds[k]
-        if kind == "environment":
-            d = n if eye >= 0 else -n
-            ok = not scene.ray_test(si.spawn_ray(d))
-        elif kind == "direction":
-            ds, _ = e.sample_direction(si, mi.Point2f(0.5, 0.5))
-            ok = dr.dot(n, ds.d) * eye > 0 and not scene.ray_test(si.spawn_ray(ds.d))
+        if kind in ("environment", "direction"):
+            if kind == "environment":  # the zenith of the sky: +y of the emitter's frame
+                up = e.world_transform() @ mi.Vector3f(0, 1, 0)
+                d = up / dr.norm(up)
+            else:
+                d = e.sample_direction(si, mi.Point2f(0.5, 0.5))[0].d
+            ok = dr.dot(n, d) * eye > 0 and not scene.ray_test(si.spawn_ray(d))
         elif kind == "area":
             bb = e.get_shape().bbox()
             c = (bb.min + bb.max) * 0.5

@@ -22,9 +22,10 @@ a hit point when
                                 light's own shape first counts as reaching it (a sphere light's
                                 centre is inside it). A point *on* the light's shape sees it.
   directional                   along the light's direction, to infinity
-  envmap, constant (infinite)   the whole environment is one light; its deterministic direction
-                                is the surface normal on the ray's side ("is the sky straight
-                                above the point visible"), to infinity
+  envmap, constant (infinite)   the whole environment is one light, tested like a directional
+                                light shining straight down from the sky: along the
+                                environment's up axis (+y of its ``to_world``, Mitsuba's envmap
+                                convention; world +y for ``constant``), to infinity
   ============================  ==============================================================
 
 Emission profiles are not evaluated beyond the spot cone (a one-sided area light is visible
@@ -121,6 +122,16 @@ def light_table(scene: mi.Scene, objects: ObjectTable) -> LightTable:
     return LightTable(table, emitters, kinds, shapes)
 
 
+def sky_direction(emitter: mi.Emitter) -> mi.Vector3f:
+    """The direction towards an environment light's zenith: +y of its ``to_world``.
+
+    Testing the sky along the surface normal instead (a first design) drew the silhouettes of
+    objects onto the walls behind them as "shadow" edges; a zenith direction puts the sky's
+    shadow under the objects, where a viewer expects it.
+    """
+    return dr.normalize(emitter.world_transform() @ mi.Vector3f(0.0, 1.0, 0.0))
+
+
 def _bbox_centre(shape: mi.Shape) -> mi.Point3f:
     bb = shape.bbox()
     c = (np.asarray(bb.min, np.float64).ravel() + np.asarray(bb.max, np.float64).ravel()) / 2
@@ -147,12 +158,11 @@ def visible_lights(
     centre = mi.Point2f(0.5, 0.5)
     for k, e in lights.emitters.items():
         kind = lights.kinds[k]
-        if kind == ENVIRONMENT:
-            d = dr.mulsign(n, eye_side)
-            ok = active & ~scene.ray_test(si.spawn_ray(d), active)
-        elif kind == DIRECTION:
-            ds, _ = e.sample_direction(si, centre, active)
-            d = ds.d
+        if kind in (ENVIRONMENT, DIRECTION):
+            if kind == ENVIRONMENT:
+                d = sky_direction(e)
+            else:
+                d = e.sample_direction(si, centre, active)[0].d
             ok = active & (dr.dot(n, d) * eye_side > 0)
             ok &= ~scene.ray_test(si.spawn_ray(d), ok)
         elif kind == AREA:
