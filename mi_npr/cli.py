@@ -141,6 +141,13 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--res", type=_positive, default=128, help="ID buffer size, long side (128)")
     b.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
     _define_argument(b)
+    b.add_argument(
+        "--ignore",
+        action="append",
+        default=[],
+        metavar="OBJECT",
+        help="an object whose pixels count as background, e.g. a floor (repeatable)",
+    )
     b.add_argument("--json", action="store_true", help="print the result as JSON")
 
     i = sub.add_parser("info", help="list the layers, object table and camera of an EXR")
@@ -238,7 +245,13 @@ def _cmd_best_view(args: argparse.Namespace) -> int:
     from .viewpoint import write_best_view
 
     best, outputs = write_best_view(
-        args.scene, args.output, args.measure, args.depth, args.res, **dict(args.defines)
+        args.scene,
+        args.output,
+        args.measure,
+        args.depth,
+        args.res,
+        ignore=args.ignore,
+        **dict(args.defines),
     )
     if args.json:
         info = {"scene": args.scene, **best.to_dict()}

@@ -11,6 +11,7 @@ Every file goes through :mod:`mi_npr.io` (temporary name, then rename).
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -38,10 +39,12 @@ def write_best_view(
     stem: str | None = None,
     samples: int = SPHERE_SAMPLES,
     seed: int = 0,
+    ignore: Sequence[str] = (),
     **defines: Any,
 ) -> tuple[BestView, dict[str, Path]]:
     """Search the best view of the XML scene and write the three files (module docstring).
 
+    ``ignore`` names objects whose pixels count as background (:func:`best_view`).
     ``defines`` fill the XML's ``<default>``s (the written film is the film they give). Returns
     the :class:`BestView` and the written paths by kind (``sensor``, ``render``, ``sphere``).
     """
@@ -53,7 +56,7 @@ def write_best_view(
         raise SceneError(f"{scene_path}: {e}") from None
     d = io.check_writable_dir(outdir, create=True)
     stem = stem or Path(scene_path).stem
-    view = viewing(scene, res=res)
+    view = viewing(scene, res=res, ignore=ignore)
     best = search(scene, view, measure, depth)
     out: dict[str, Path] = {}
     out["sensor"] = io.write_text(d / f"{stem}_best_view.xml", sensor_xml(best, scene))

@@ -23,6 +23,10 @@ Defaults, where the paper leaves them open:
   of the horizontal and vertical fields of view: the distance at which the whole bounding
   sphere just fits in the image (2.61 R for a square 45 degree view). With a ``target`` away
   from the sphere's centre, ``R`` grows by that distance, so the scene still fits.
+- ``ignore``: names of objects (a floor, a backdrop) whose pixels count as background: they
+  still hide what is behind them, but add nothing to any measure, and their polygons leave
+  ``n`` (eq. 1). Large flat polygons otherwise decide most searches (a floor seen from straight
+  above or below fills the image with one or two faces).
 - ``up``: the world axis closest to the scene sensor's up vector (+y for a camera placed with
   ``lookat up="0, 1, 0"``, however it is tilted), or the world axis least aligned with the view
   direction where that is too close to it (:func:`~mi_npr.viewpoint.idbuffer.view_frame`).
@@ -43,7 +47,7 @@ import numpy as np
 from ..errors import ParameterError, SceneError
 from ..scene import camera_of, load_scene, sensor_of
 from . import idbuffer
-from .measures import MEASURES, check_measure
+from .measures import MEASURES, Topology, check_measure
 
 #: Default horizontal field of view (degrees) when the scene's sensor has none.
 DEFAULT_FOV = 45.0
@@ -70,6 +74,8 @@ class Viewing:
     size: tuple[int, int]
     up: np.ndarray
     polygons: idbuffer.Polygons = field(repr=False)
+    #: columns of the area table kept (column 0, the background, always): ignored objects' not
+    keep: np.ndarray | None = field(default=None, repr=False)
 
     def origins(self, directions: np.ndarray) -> np.ndarray:
         d = np.asarray(directions, np.float64).reshape(-1, 3)
@@ -84,7 +90,33 @@ class Viewing:
     def qualities(self, scene: mi.Scene, origins: np.ndarray, measure: str) -> np.ndarray:
         a = self.areas(scene, origins)
         topo = self.polygons.topology() if measure == "curvature" else None
+        if self.keep is not None:  # ignored objects' pixels become background
+            a = a.astype(np.int64)
+            a[:, 0] += a[:, ~self.keep].sum(axis=1)
+            a = a[:, self.keep]
+            if topo is not None:
+                topo = Topology(topo.polygon_vertices[self.keep], topo.vertex_term)
         return np.asarray(MEASURES[measure](a, topo), np.float64).reshape(-1)
+
+
+def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray | None:
+    """The area-table columns that stay when the objects named ``ignore`` are ignored."""
+    if isinstance(ignore, str):
+        ignore = (ignore,)
+    if not ignore:
+        return None
+    by_name = {v: k for k, v in polys.table.names.items()}
+    unknown = [n for n in ignore if n not in by_name]
+    if unknown:
+        raise ParameterError(
+            f"ignore = {unknown[0]!r}: no such object (objects: {', '.join(by_name)})"
+        )
+    keep = np.ones(polys.n + 1, dtype=bool)
+    for name in ignore:
+        oid = by_name[name]
+        start = int(polys.base[oid]) + 1
+        keep[start : start + int(polys.span[oid])] = False
+    return keep
 
 
 def _bounding_sphere(scene: mi.Scene) -> tuple[np.ndarray, float]:
@@ -114,6 +146,7 @@ def viewing(
     res: int = 128,
     fov: float | None = None,
     sensor: int | mi.Sensor = 0,
+    ignore: Sequence[str] = (),
 ) -> Viewing:
     """The viewing setup of ``scene`` with the defaults of the module docstring filled in."""
     if scene.sensors() or isinstance(sensor, mi.Sensor):
@@ -144,7 +177,8 @@ def viewing(
         or not (math.isfinite(radius) and radius > 0)
     ):
         raise ParameterError(f"radius = {radius!r}: must be a positive number")
-    return Viewing(tgt, float(radius), fov, size, up, idbuffer.polygons(scene))
+    polys = idbuffer.polygons(scene)
+    return Viewing(tgt, float(radius), fov, size, up, polys, _kept_columns(polys, ignore))
 
 
 def qualities(
@@ -156,11 +190,12 @@ def qualities(
     *,
     fov: float | None = None,
     sensor: int = 0,
+    ignore: Sequence[str] = (),
 ) -> np.ndarray:
     """:func:`quality` of many viewpoints at once (batched Dr.Jit launches): float64 (V,)."""
     check_measure(measure)
     scene = load_scene(scene)
-    view = viewing(scene, target, 1.0, res, fov, sensor)
+    view = viewing(scene, target, 1.0, res, fov, sensor, ignore)
     return view.qualities(scene, np.asarray(origins, np.float64).reshape(-1, 3), measure)
 
 
@@ -173,6 +208,7 @@ def quality(
     *,
     fov: float | None = None,
     sensor: int = 0,
+    ignore: Sequence[str] = (),
 ) -> float:
     """Quality of the viewpoint at ``origin`` looking at ``target`` (eq. 1, 2 or 3).
 
@@ -180,12 +216,13 @@ def quality(
     from the areas of an ``res``-pixel ID buffer (see :mod:`mi_npr.viewpoint.measures` for the
     exact definitions). ``target`` defaults to the centre of the scene's bounding sphere; ``fov``
     and the image's aspect ratio come from the scene's sensor. A viewpoint that sees nothing has
-    quality 0.
+    quality 0. Objects named in ``ignore`` count as background (module docstring).
 
     >>> from mi_npr.viewpoint import quality
     >>> quality("scenes_xml/scene3.xml", [4, 3, -4], measure="pb")  # doctest: +SKIP
     """
-    return float(qualities(scene, [origin], target, measure, res, fov=fov, sensor=sensor)[0])
+    q = qualities(scene, [origin], target, measure, res, fov=fov, sensor=sensor, ignore=ignore)
+    return float(q[0])
 
 
 @dataclass(frozen=True)
@@ -267,6 +304,7 @@ def best_view(
     target: Sequence[float] | np.ndarray | None = None,
     fov: float | None = None,
     sensor: int = 0,
+    ignore: Sequence[str] = (),
 ) -> BestView:
     """Search the viewing sphere for the best viewpoint under ``measure`` (module docstring).
 
@@ -282,7 +320,8 @@ def best_view(
         raise ParameterError(f"depth = {depth!r}: must be a non-negative integer")
     scene = load_scene(scene)
     check_shapes(scene)
-    return search(scene, viewing(scene, target, radius, res, fov, sensor), measure, int(depth))
+    view = viewing(scene, target, radius, res, fov, sensor, ignore)
+    return search(scene, view, measure, int(depth))
 
 
 def check_shapes(scene: mi.Scene) -> None:
@@ -351,13 +390,15 @@ def quality_map(
     target: Sequence[float] | np.ndarray | None = None,
     fov: float | None = None,
     sensor: int = 0,
+    ignore: Sequence[str] = (),
 ) -> tuple[np.ndarray, np.ndarray]:
     """The quality over the whole viewing sphere: ``(directions (S, 3), qualities (S,))`` at
     ``samples`` Fibonacci-lattice directions, rated in batched launches (for the sphere picture
     and plots; same setup as :func:`best_view`)."""
     check_measure(measure)
     scene = load_scene(scene)
-    return sample_sphere(scene, viewing(scene, target, radius, res, fov, sensor), measure, samples)
+    view = viewing(scene, target, radius, res, fov, sensor, ignore)
+    return sample_sphere(scene, view, measure, samples)
 
 
 def sample_sphere(
