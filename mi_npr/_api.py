@@ -16,7 +16,7 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import io, kernels  # noqa: E402
+from . import foliage, io, kernels  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -31,6 +31,7 @@ __all__ = [
     "SceneError",
     "camera_of",
     "dr",
+    "foliage",
     "io",
     "kernels",
     "layers",
