@@ -73,10 +73,14 @@ FORMAT = "mi-npr/hlps"
 #: Floats per blob in :meth:`HLPSet.packed`: centre (3), M (xx xy xz yy yz zz), log weight.
 PACKED = 10
 _CHUNK = 1 << 16  # points per block in the numpy evaluations (bounds memory at (chunk, k))
+_GRID_VERTICES = 1_000_000  # most vertices of the grid that finds the surface's cells
 
 
 def _orthonormal(name: str, axes: np.ndarray) -> np.ndarray:
-    """The nearest rotation-like orthonormal rows (polar decomposition); error if singular."""
+    """The nearest orthonormal rows (polar decomposition); error if singular. Rows that are
+    already orthonormal are kept bit for bit (so JSON round trips are exact)."""
+    if np.all(np.abs(axes @ np.swapaxes(axes, 1, 2) - np.eye(3)) < 1e-12):
+        return axes
     u, s, vt = np.linalg.svd(axes)
     if np.any(s < 1e-6 * np.maximum(s.max(axis=-1, keepdims=True), 1e-300)):
         raise ParameterError(f"{name}: HLP axes must be 3 independent directions")
@@ -203,8 +207,11 @@ class HLPSet:
         their 26 neighbours, as integer (c, 3) coordinates. The surface's thin sampling shell
         (half-thickness = half a cell) lies in them."""
         lo, hi = self.bounds()
+        # A fifth of the typical radius, coarser only beyond ~1M grid vertices.
+        volume = float(np.prod(hi - lo + 0.4 * np.median(self.radii)))
+        h = max(0.2 * float(np.median(self.radii)), (volume / _GRID_VERTICES) ** (1 / 3))
+        lo, hi = lo - h, hi + h  # the shell reaches half a cell beyond the surface's box
         ext = hi - lo
-        h = max(0.2 * float(np.median(self.radii)), float(ext.max()) / 80)
         n = np.maximum(np.ceil(ext / h).astype(np.int64), 1)
         axes = [lo[i] + h * np.arange(n[i] + 1) for i in range(3)]
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -409,10 +416,11 @@ def clusters_for_radius(points: np.ndarray, radius: float) -> int:
 
 
 def default_radius(plant: Plant) -> float:
-    """The HLP radius used when neither ``k`` nor ``radius`` is given: 1/10 of the bounding
-    box's diagonal."""
+    """The HLP radius used when neither ``k`` nor ``radius`` is given: 1/5 of the bounding
+    box's diagonal (a few HLPs per crown: the thesis's HLPs are "much less detailed" than the
+    foliage, and many small blobs make a lumpy surface whose normals vary between leaves)."""
     lo, hi = plant.bbox()
-    return max(0.1 * float(np.linalg.norm(hi - lo)), 1e-6)
+    return max(0.2 * float(np.linalg.norm(hi - lo)), 1e-6)
 
 
 def build_hlps(

@@ -14,7 +14,8 @@ where ``A`` is the plant's total leaf area (placement ``"leaves"``) or the area 
 
 - ``"leaves"`` -- at the original leaves: a sample of them weighted by area (without replacement
   while there are fewer primitives than leaves; beyond that every leaf is used and the extra
-  primitives are spread over the original leaf's extent in its plane);
+  primitives are spread uniformly in a ball of the original leaf's half-length around it, not in
+  its plane, where overlapping coplanar primitives would z-fight);
 - ``"surface"`` -- about uniformly on the HLP implicit surface (points on the blobs' ellipsoids
   that no other blob buries, projected onto ``F = iso`` by Newton steps);
 - ``"volume"`` -- uniformly inside the implicit surface.
@@ -310,12 +311,12 @@ def make_leaves(
         if m <= n:
             src = rng.choice(n, m, replace=False, p=p)
             P = plant.centers[src].copy()
-        else:  # every leaf, plus extra primitives spread over the leaves' own extent
+        else:  # every leaf, plus extra primitives in a small cloud around their leaf
             src = np.concatenate([np.arange(n), rng.choice(n, m - n, p=p)])
-            side = np.cross(plant.normals[src], plant.axes[src])
-            off = rng.uniform(-0.5, 0.5, (m, 2)) * plant.sizes[src, None]
+            radius = 0.5 * plant.sizes[src] * rng.random(m) ** (1 / 3)  # uniform in the ball
+            off = _random_unit(rng, m) * radius[:, None]
             off[:n] = 0.0
-            P = plant.centers[src] + off[:, :1] * plant.axes[src] + 0.5 * off[:, 1:] * side
+            P = plant.centers[src] + off
     elif placement == "surface":
         P = hlps.sample_surface(m, rng)  # type: ignore[union-attr]
     else:

@@ -41,11 +41,13 @@ def leaf_mesh(leaves: Leaves, name: str, bsdf: mi.BSDF | None = None) -> mi.Mesh
         props["bsdf"] = bsdf
     mesh = mi.Mesh(name, len(V), len(F), props=props, has_vertex_texcoords=True)
     params = mi.traverse(mesh)
-    params["vertex_positions"] = mi.Float(np.ascontiguousarray(V.reshape(-1)))
-    params["faces"] = mi.UInt32(np.ascontiguousarray(F.reshape(-1)))
-    params["vertex_texcoords"] = mi.Float(np.ascontiguousarray(UV.reshape(-1)))
+    # The buffers' own types: mi.Float / mi.UInt32 on JIT variants, dynamic arrays on scalar ones.
+    floats, ints = type(params["vertex_positions"]), type(params["faces"])
+    params["vertex_positions"] = floats(np.ascontiguousarray(V.reshape(-1)))
+    params["faces"] = ints(np.ascontiguousarray(F.reshape(-1)))
+    params["vertex_texcoords"] = floats(np.ascontiguousarray(UV.reshape(-1)))
     params.update()
-    mesh.add_attribute("face_leaf", 1, mi.Float(face_leaf.astype(np.float32)))
+    mesh.add_attribute("face_leaf", 1, floats(face_leaf.astype(np.float32)))
     if dr.is_jit_v(mi.Float):
         dr.eval()
     return mesh

@@ -214,7 +214,9 @@ def scene_xml(
     <default name="beauty" value="direct"/>
     <default name="abstraction" value="{_fmt(float(a))}"/>
     <default name="leaf_size" value="{_fmt(float(size))}"/>
-    <default name="seed" value="{seed}"/>
+    <default name="leaf_seed" value="{seed}"/>
+    <default name="sun" value="2.6"/>
+    <default name="sky" value="0.55, 0.6, 0.65"/>
 
     <integrator type="$integrator">
 {lines}        <integrator type="$beauty"/>
@@ -243,7 +245,7 @@ def scene_xml(
         <string name="orientation" value="{st.orientation}"/>
         <float name="coverage" value="{_fmt(st.coverage)}"/>
         <float name="tilt" value="{_fmt(st.tilt)}"/>
-        <integer name="seed" value="$seed"/>
+        <integer name="seed" value="$leaf_seed"/>
         <bsdf type="npr_foliage">
             <string name="hlps" value="{hlps_file}"/>
             <float name="abstraction" value="$abstraction"/>
@@ -256,10 +258,10 @@ def scene_xml(
 {wood}
     <emitter type="directional" id="sun">
         <vector name="direction" x="0.45" y="-0.7" z="-1"/>
-        <rgb name="irradiance" value="2.6"/>
+        <rgb name="irradiance" value="$sun"/>
     </emitter>
     <emitter type="constant" id="sky">
-        <rgb name="radiance" value="0.55, 0.6, 0.65"/>
+        <rgb name="radiance" value="$sky"/>
     </emitter>
 </scene>
 """
