@@ -240,3 +240,44 @@ def test07_parameter_errors(tmp_path):
         p.write_text(one_leaf_scene(tmp_path, **{"a": 0.5, **kw}))
         with pytest.raises(SceneError, match=match):
             mi_npr.load_scene(p)
+
+
+def test08_any_bsdf_can_define_the_N_layer(write_scene):
+    """The G-buffer hook is generic: a BSDF with npr_shading_normal(si, active) sets N on the
+    pixels of the shapes that use it, and only there."""
+
+    class Tilted(mi.BSDF):
+        def __init__(self, props):
+            super().__init__(props)
+            self.m_flags = int(mi.BSDFFlags.DiffuseReflection)
+
+        def npr_shading_normal(self, si, active=True):
+            return dr.normalize(si.n + mi.Vector3f(0, 1, 0))
+
+        def eval(self, ctx, si, wo, active=True):
+            return mi.Color3f(0.0)
+
+        def pdf(self, ctx, si, wo, active=True):
+            return mi.Float(0.0)
+
+        def sample(self, ctx, si, s1, s2, active=True):
+            return mi.BSDFSample3f(), mi.Color3f(0.0)
+
+    mi.register_bsdf("test54_tilted", lambda props: Tilted(props))
+    body = (
+        '<shape type="sphere" id="ball"><point name="center" x="0.6" y="0" z="4"/>'
+        '<bsdf type="test54_tilted"/></shape>'
+        '<shape type="sphere" id="plain"><point name="center" x="-0.6" y="0" z="4"/>'
+        '<float name="radius" value="0.5"/></shape>'
+    )
+    gb = mi_npr.render(write_scene(body))
+    ball, plain = gb.object_id == 1, gb.object_id == 2
+    P = gb.stack(L.P)
+    n = P[ball] - [0.6, 0, 4]
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    tilted = n + np.array([0.0, 1.0, 0.0])
+    np.testing.assert_allclose(
+        gb.normals[ball], tilted / np.linalg.norm(tilted, axis=1)[:, None], atol=1e-5
+    )
+    m = (P[plain] - [-0.6, 0, 4]) / 0.5
+    np.testing.assert_allclose(gb.normals[plain], m, atol=1e-5)

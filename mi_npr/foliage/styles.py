@@ -17,8 +17,11 @@ A :class:`Style` holds the choices: leaf shape, placement, orientation, leaf siz
 plant's bounding-box diagonal, so a style suits a plant of any scale), abstraction, coverage, tilt,
 colour bands, leaf colour and the ``npr_lines`` parameters. :func:`scene_xml` turns a style and a
 plant's files into a Mitsuba scene whose ``<default>``s are ``width``, ``height``, ``spp``,
-``integrator`` (``npr_lines``), ``beauty`` (``direct``), ``abstraction``, ``leaf_size`` and
-``seed``; the leaves are made when the scene loads (``npr_leaves``), so ``-D leaf_size=...`` works.
+``integrator`` (``npr_lines``: it carries the style's line parameters, so another integrator must
+accept them too), ``beauty`` (``direct``), ``abstraction``, ``leaf_size``, ``leaf_seed`` (the
+leaves' random placement; not ``seed``, which ``mi_npr.render`` takes for the sampler), ``sun``
+(irradiance) and ``sky`` (radiance, also the background); the leaves are made when the scene loads
+(``npr_leaves``), so ``-D leaf_size=...`` works.
 :func:`write_foliage_scene` is what ``mi-npr foliage`` runs: HLPs from the plant, the plant and
 HLP files, the wood, and the XML, all written atomically beside the XML.
 
@@ -73,7 +76,7 @@ STYLES: dict[str, Style] = {
             "Fig. 4.8 (a): small leaf primitives with thick leaf outlines",
             leaf_shape="leaf",
             placement="leaves",
-            orientation="hlp",
+            orientation="leaf",
             leaf_size=0.035,
             abstraction=0.3,
             tilt=40.0,
@@ -88,7 +91,7 @@ STYLES: dict[str, Style] = {
             leaf_size=0.09,
             abstraction=0.85,
             coverage=1.6,
-            tilt=35.0,
+            tilt=60.0,
             lines={"leaf_edges": 1, "bright_fade": 0.35},
         ),
         Style(
