@@ -139,8 +139,12 @@ def _report(results: list) -> int:
 
 
 def _cmd_foliage(args: argparse.Namespace) -> int:
-    from .foliage.styles import load_plant, write_foliage_scene
+    from .errors import ParameterError
+    from .foliage.styles import load_plant, scene_files, write_foliage_scene
 
+    source = Path(args.input).resolve()
+    if any(p.resolve() == source for p in scene_files(args.output).values()):
+        raise ParameterError(f"{args.input}: -o {args.output} would overwrite the input plant")
     plant = load_plant(args.input, seed=args.seed, leaves=args.leaves)
     written = write_foliage_scene(
         args.output,

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import mi_npr
+from mi_npr import cli
 from mi_npr import foliage as fo
 from mi_npr import layers as L
 from mi_npr.errors import ParameterError
@@ -23,6 +24,7 @@ DEFAULTS = {"abstraction", "leaf_size", "width", "height", "spp", "integrator", 
 
 def test01_presets():
     assert tuple(S.STYLES) == STYLES
+    assert cli._STYLES == STYLES  # the CLI lists them without importing the package
     for name in STYLES:
         st = S.style(name)
         fo.leaf_template(st.leaf_shape)

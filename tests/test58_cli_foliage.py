@@ -79,6 +79,10 @@ def test02_mesh_plant_file(tmp_path, capsys):
         == 0
     )
     assert len(fo.read_plant(tmp_path / "p_plant.ply")) == 2 * n
+    # The plant's own file is never overwritten by the scene's assets.
+    plant_file = tmp_path / "p_plant.ply"
+    code = cli.main(["foliage", str(plant_file), "--style", "van_gogh", "-o", str(out)])
+    assert code == 1 and "would overwrite the input plant" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -65,7 +65,7 @@ import numpy as np
 from ..errors import InputError, ParameterError
 from ..meshes import write_ply
 from .hlp import HLPSet
-from .plant import Plant, _unit, any_perpendicular
+from .plant import Plant, any_perpendicular, unit_rows
 
 SHAPES = ("quad", "disc", "ellipse", "leaf")
 PLACEMENTS = ("leaves", "surface", "volume")
@@ -219,7 +219,7 @@ def _rotate(v: np.ndarray, k: np.ndarray, angle: np.ndarray) -> np.ndarray:
 
 
 def _random_unit(rng: np.random.Generator, n: int) -> np.ndarray:
-    v, length = _unit(rng.normal(size=(n, 3)))
+    v, length = unit_rows(rng.normal(size=(n, 3)))
     v[length == 0] = [0.0, 1.0, 0.0]
     return v
 
@@ -338,12 +338,12 @@ def make_leaves(
         A = _spin(N, rng)
     else:  # van_gogh
         assert hlps is not None
-        d, dl = _unit(P - hlps.centers[which])
+        d, dl = unit_rows(P - hlps.centers[which])
         d = np.where(dl[:, None] > 1e-9, d, np.where(undefined[:, None], [[0.0, 1.0, 0.0]], n_hlp))
         order = np.argsort(-hlps.radii[which], axis=1)
         longest = hlps.axes[which, order[:, 0]]
-        A, al = _unit(np.cross(longest, d))
-        alt, _ = _unit(np.cross(hlps.axes[which, order[:, 1]], d))
+        A, al = unit_rows(np.cross(longest, d))
+        alt, _ = unit_rows(np.cross(hlps.axes[which, order[:, 1]], d))
         A = np.where(al[:, None] > 1e-3, A, alt)
         A = _rotate(A, d, np.radians(tilt / 2) * rng.uniform(-1, 1, m))
         N = _rotate(d, A, np.radians(tilt) * rng.uniform(-1, 1, m))
@@ -351,9 +351,9 @@ def make_leaves(
     flip = np.sum(N * n_hlp, axis=1) < 0
     N[flip] = -N[flip]
     # Exact frames: axis in the leaf plane, unit.
-    N, _ = _unit(N)
+    N, _ = unit_rows(N)
     A = A - np.sum(A * N, axis=1, keepdims=True) * N
-    A, al = _unit(A)
+    A, al = unit_rows(A)
     A[al < 1e-9] = any_perpendicular(N[al < 1e-9])
     sizes = np.full(m, float(leaf_size))
     return Leaves(P, N, A, sizes, which.astype(np.int64), template)

@@ -45,7 +45,7 @@ LEAF_MODES = ("components", "triangles")
 _POINT_PROPS = ("nx", "ny", "nz", "ax", "ay", "az", "size", "area")
 
 
-def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def unit_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rows of ``v`` normalised, and their original lengths (0 rows stay 0)."""
     n = np.linalg.norm(v, axis=-1)
     safe = np.where(n > 0, n, 1.0)
@@ -55,7 +55,7 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def any_perpendicular(n: np.ndarray) -> np.ndarray:
     """A unit vector perpendicular to each unit row of ``n`` (deterministic)."""
     helper = np.where(np.abs(n[:, 1:2]) < 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]])
-    t, _ = _unit(np.cross(n, helper))
+    t, _ = unit_rows(np.cross(n, helper))
     return t
 
 
@@ -145,7 +145,7 @@ class Plant:
         if len(N) != len(P):
             raise InputError(f"{name}: {len(P)} points but {len(N)} normals")
         _check_finite(name, "normals", N)
-        N, length = _unit(N)
+        N, length = unit_rows(N)
         if np.any(length == 0):
             raise InputError(f"{name}: {int(np.sum(length == 0))} points have a zero normal")
         if sizes is None:
@@ -159,7 +159,7 @@ class Plant:
             A = np.asarray(axes, dtype=np.float64).reshape(-1, 3)
             _check_finite(name, "leaf axes", A)
             A = A - np.sum(A * N, axis=1, keepdims=True) * N  # into the leaf plane
-            A, alen = _unit(A)
+            A, alen = unit_rows(A)
             A[alen < 1e-9] = any_perpendicular(N[alen < 1e-9])
         ar = 0.5 * S**2 if areas is None else np.asarray(areas, np.float64).reshape(-1)
         return cls(P, N, A, S, ar, None, name)
@@ -239,7 +239,7 @@ def _leaves_from_faces(V: np.ndarray, F: np.ndarray, label: np.ndarray, name: st
     keep = area > 0
     center[keep] /= area[keep, None]
     nsum = np.stack([np.bincount(label, cross[:, i], c) for i in range(3)], axis=1)
-    normal, nlen = _unit(nsum)
+    normal, nlen = unit_rows(nsum)
     keep &= nlen > 0
     # Principal in-plane direction of each leaf's vertices (per-face vertex triples, so a vertex
     # shared by several faces counts several times: harmless for the direction).

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
-from .plant import Plant, _unit, any_perpendicular
+from .plant import Plant, any_perpendicular, unit_rows
 
 KINDS = ("tree", "bush")
 
@@ -113,10 +113,10 @@ def procedural_tree(
     sigma = 0.13 if kind == "tree" else 0.11
     centre = tip_pos[clump] + 0.12 * tip_dir[clump]
     P = centre + rng.normal(0.0, sigma, (n_leaves, 3)) * [1.0, 0.8, 1.0]
-    outward, _ = _unit(P - centre + 0.05 * tip_dir[clump])
-    N, _ = _unit(outward + 0.6 * rng.normal(0.0, 1.0, (n_leaves, 3)) + 0.3 * up)
+    outward, _ = unit_rows(P - centre + 0.05 * tip_dir[clump])
+    N, _ = unit_rows(outward + 0.6 * rng.normal(0.0, 1.0, (n_leaves, 3)) + 0.3 * up)
     N[np.linalg.norm(N, axis=1) == 0] = up
-    A, _ = _unit(np.cross(N, rng.normal(0.0, 1.0, (n_leaves, 3))))
+    A, _ = unit_rows(np.cross(N, rng.normal(0.0, 1.0, (n_leaves, 3))))
     zero = np.linalg.norm(A, axis=1) < 0.5
     A[zero] = any_perpendicular(N[zero])
     S = leaf_size * np.exp(rng.normal(0.0, 0.15, n_leaves))

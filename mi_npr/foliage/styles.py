@@ -307,26 +307,31 @@ def write_foliage_scene(
     if out.suffix.lower() != ".xml":
         raise ParameterError(f"{out}: the scene file must end in .xml")
     leaf_template(st.leaf_shape)
-    stem = assets or out.stem
+    files = scene_files(out, assets)
     check_writable_dir(out.parent, create=True)
     h = hlps if hlps is not None else build_hlps(plant, k=k, seed=seed)
-    d = out.parent
-    names = {"plant": f"{stem}_plant.ply", "hlps": f"{stem}_hlps.json"}
-    text = scene_xml(
-        st,
-        names["plant"],
-        names["hlps"],
-        plant,
-        f"{stem}_wood.ply" if plant.wood is not None else None,
-        leaf_size,
-        abstraction,
-        seed,
-    )
-    written = [plant.save(d / names["plant"]), h.save(d / names["hlps"])]
+    rel = {k: os.path.relpath(p, out.parent) for k, p in files.items()}
+    wood = rel["wood"] if plant.wood is not None else None
+    text = scene_xml(st, rel["plant"], rel["hlps"], plant, wood, leaf_size, abstraction, seed)
+    written = [plant.save(files["plant"]), h.save(files["hlps"])]
     if plant.wood is not None:
-        written.append(write_ply(d / f"{stem}_wood.ply", *plant.wood))
+        written.append(write_ply(files["wood"], *plant.wood))
     written.append(_write_text(out, text))
     return written
+
+
+def scene_files(output: str | os.PathLike[str], assets: str | None = None) -> dict[str, Path]:
+    """The files :func:`write_foliage_scene` writes: ``{"xml", "plant", "hlps", "wood"}`` (the
+    assets beside the XML, named ``<assets or stem>_plant.ply`` and so on)."""
+    out = Path(output)
+    stem = assets or out.stem
+    d = out.parent
+    return {
+        "xml": out,
+        "plant": d / f"{stem}_plant.ply",
+        "hlps": d / f"{stem}_hlps.json",
+        "wood": d / f"{stem}_wood.ply",
+    }
 
 
 def write_style_scenes(directory: str | os.PathLike[str]) -> list[Path]:
