@@ -89,9 +89,43 @@ def raytree_panel() -> Path:
     return path
 
 
+def foliage_panel() -> Path:
+    """The four foliage styles (thesis Fig. 4.8) and the N layer at abstraction 0 and 1."""
+    styles = ["small_leaves", "large_leaves", "van_gogh", "childrens_book"]
+    res = 420
+    crop = np.s_[int(0.08 * res) : int(0.62 * res), int(0.14 * res) : int(0.86 * res)]
+    panels = []
+    for name in styles:
+        gb = mi_npr.render(ROOT / "scenes_xml" / f"foliage_{name}.xml", width=res, height=res)
+        panels.append((mi_npr.io.to_rgb8(gb.beauty)[crop], name))
+    for a in (0.0, 1.0):
+        gb = mi_npr.render(
+            ROOT / "scenes_xml" / "foliage_large_leaves.xml", width=res, height=res, abstraction=a
+        )
+        leaf = (gb["leaf_id"] > 0)[..., None]
+        panels.append((np.where(leaf, gb.normals * 0.5 + 0.5, 1.0)[crop], f"N, abstraction {a:g}"))
+    fig, ax = plt.subplots(1, len(panels), figsize=(3.0 * len(panels), 2.6))
+    for a, (img, title) in zip(ax, panels, strict=True):
+        a.imshow(img)
+        a.set_title(title)
+        a.axis("off")
+    fig.tight_layout()
+    path = OUT / "foliage_styles.png"
+    fig.savefig(path, dpi=80, bbox_inches="tight")
+    return path
+
+
+PANELS = {
+    "gbuffer": gbuffer_panel,
+    "lines": lines_panel,
+    "contours": contours_panel,
+    "raytree": raytree_panel,
+    "foliage": foliage_panel,
+}
+
 if __name__ == "__main__":
+    import sys
+
     OUT.mkdir(parents=True, exist_ok=True)
-    print(gbuffer_panel())
-    print(lines_panel())
-    print(contours_panel())
-    print(raytree_panel())
+    for name in sys.argv[1:] or PANELS:  # python docs/make_figures.py [gbuffer lines foliage]
+        print(PANELS[name]())

@@ -16,7 +16,7 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import contours, io, kernels, raytree, viewpoint  # noqa: E402
+from . import contours, foliage, io, kernels, raytree, viewpoint  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -32,6 +32,7 @@ __all__ = [
     "camera_of",
     "contours",
     "dr",
+    "foliage",
     "io",
     "kernels",
     "layers",

@@ -3,7 +3,8 @@
 Python integrators subclass the *current* variant's ``mi.SamplingIntegrator`` and are registered
 per variant, so every time a variant becomes active (through :func:`set_variant` or a plain
 ``mi.set_variant``) the base module :mod:`mi_npr.integrator` and every ``plugins/npr_*.py`` are
-(re)imported, which re-runs their ``mi.register_integrator(...)`` line, like Mitsuba's own
+(re)imported, which re-runs their ``mi.register_integrator(...)`` (or ``register_bsdf``,
+``register_shape``) line, like Mitsuba's own
 ``mitsuba.ad.integrators`` does.
 """
 

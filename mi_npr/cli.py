@@ -14,6 +14,8 @@ from importlib import metadata
 from pathlib import Path
 
 PROG = "mi-npr"
+#: The foliage styles (mi_npr.foliage.styles.STYLES), listed here so --help needs no import.
+_STYLES = ("small_leaves", "large_leaves", "van_gogh", "childrens_book")
 
 
 def _version() -> str:
@@ -150,6 +152,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     b.add_argument("--json", action="store_true", help="print the result as JSON")
 
+    f = sub.add_parser("foliage", help="turn a plant (PLY/OBJ) into a foliage scene in a style")
+    f.add_argument(
+        "input",
+        metavar="INPUT.ply",
+        help="plant: PLY/OBJ mesh of leaves, point set with normals, or procedural:tree|bush",
+    )
+    f.add_argument("--style", required=True, choices=_STYLES, help="drawing style (Fig. 4.8)")
+    f.add_argument("-o", "--output", required=True, metavar="SCENE.xml", help="scene file to write")
+    f.add_argument("--leaf-size", type=float, help="leaf primitive length (default: the style's)")
+    f.add_argument("--abstraction", type=float, help="normal mixing in [0, 1] (default: style's)")
+    f.add_argument("--hlps", type=_positive, metavar="K", help="number of HLPs (default: auto)")
+    f.add_argument("--seed", type=int, default=0, help="seed of HLPs and leaves (default 0)")
+    f.add_argument(
+        "--leaves",
+        choices=("components", "triangles"),
+        default="components",
+        help="a mesh's leaves: its connected components (default) or its triangles",
+    )
+
     i = sub.add_parser("info", help="list the layers, object table and camera of an EXR")
     i.add_argument("file", metavar="FILE.exr")
     i.add_argument("--json", action="store_true", help="print JSON")
@@ -266,6 +287,27 @@ def _cmd_best_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_foliage(args: argparse.Namespace) -> int:
+    from .errors import ParameterError
+    from .foliage.styles import load_plant, scene_files, write_foliage_scene
+
+    source = Path(args.input).resolve()
+    if any(p.resolve() == source for p in scene_files(args.output).values()):
+        raise ParameterError(f"{args.input}: -o {args.output} would overwrite the input plant")
+    plant = load_plant(args.input, seed=args.seed, leaves=args.leaves)
+    written = write_foliage_scene(
+        args.output,
+        plant,
+        args.style,
+        leaf_size=args.leaf_size,
+        abstraction=args.abstraction,
+        k=args.hlps,
+        seed=args.seed,
+    )
+    print(f"{args.input}: {', '.join(str(p) for p in written)} ({len(plant)} leaves)")
+    return 0
+
+
 def _cmd_info(args: argparse.Namespace) -> int:
     import mi_npr
 
@@ -300,6 +342,7 @@ COMMANDS = {
     "contours": _cmd_contours,
     "raytree": _cmd_raytree,
     "best-view": _cmd_best_view,
+    "foliage": _cmd_foliage,
     "info": _cmd_info,
 }
 

@@ -42,6 +42,8 @@ EDGES_SHADOW = "edges.shadow"
 EDGES = (EDGES_REAL, EDGES_REFLECTION, EDGES_REFRACTION, EDGES_SHADOW)
 RAYTREE_HI = "raytree.hi"
 RAYTREE_LO = "raytree.lo"
+#: Foliage (issue 8): which leaf primitive a pixel sees.
+LEAF_ID = "leaf_id"
 
 #: The G-buffer channels, in the order they follow the beauty channels in ``mi.render``'s output.
 GBUFFER_AOVS = (Z, *P, *N, OBJECT_ID, PRIM_ID)
@@ -81,6 +83,7 @@ SPECS: dict[str, LayerSpec] = {
         LayerSpec(EDGES_SHADOW, _f32, "1 where the same object sees different lights (shadow)"),
         LayerSpec(RAYTREE_HI, _u32, "upper 32 bits of the 64-bit ray-tree signature hash"),
         LayerSpec(RAYTREE_LO, _u32, "lower 32 bits of the 64-bit ray-tree signature hash"),
+        LayerSpec(LEAF_ID, _u32, "leaf primitive: 1 + leaf index over all leaf meshes; 0 = none"),
     )
 }
 

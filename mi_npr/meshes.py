@@ -68,25 +68,43 @@ def merge(*meshes: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarra
     return np.concatenate(Vs), np.concatenate(Fs)
 
 
-def write_ply(path: str | os.PathLike[str], V: np.ndarray, F: np.ndarray) -> Path:
-    """Binary little-endian PLY with float vertices and uint8-counted uint32 triangle lists."""
+def write_ply(
+    path: str | os.PathLike[str],
+    V: np.ndarray,
+    F: np.ndarray,
+    vertex_attrs: dict[str, np.ndarray] | None = None,
+) -> Path:
+    """Binary little-endian PLY with float vertices and uint8-counted uint32 triangle lists.
+
+    ``vertex_attrs`` adds float per-vertex properties after ``x y z`` (``{"nx": (n,) array, ...}``;
+    :func:`read_ply` returns them in its ``extra`` dict). ``F`` may have no rows (a point set).
+    """
     V = np.ascontiguousarray(V, dtype="<f4")
     F = np.ascontiguousarray(F, dtype="<u4")
     if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
         raise ValueError(f"write_ply: expected V (n, 3) and F (m, 3), got {V.shape}, {F.shape}")
     if F.size and F.max() >= len(V):
         raise ValueError("write_ply: a face refers to a vertex that does not exist")
+    attrs = {k: np.asarray(a, dtype="<f4").reshape(-1) for k, a in (vertex_attrs or {}).items()}
+    for k, a in attrs.items():
+        if len(a) != len(V) or not k.isidentifier() or k in ("x", "y", "z"):
+            raise ValueError(f"write_ply: vertex attribute {k!r} is misnamed or not one per vertex")
+    props = "".join(f"property float {k}\n" for k in ("x", "y", "z", *attrs))
     header = (
         "ply\nformat binary_little_endian 1.0\ncomment written by mi-npr\n"
-        f"element vertex {len(V)}\nproperty float x\nproperty float y\nproperty float z\n"
+        f"element vertex {len(V)}\n{props}"
         f"element face {len(F)}\nproperty list uchar uint vertex_indices\nend_header\n"
     )
+    vrec = np.empty(len(V), dtype=[(k, "<f4") for k in ("x", "y", "z", *attrs)])
+    vrec["x"], vrec["y"], vrec["z"] = V[:, 0], V[:, 1], V[:, 2]
+    for k, a in attrs.items():
+        vrec[k] = a
     rec = np.empty(len(F), dtype=[("n", "u1"), ("i", "<u4", (3,))])
     rec["n"], rec["i"] = 3, F
     target = Path(path)
     with atomic_output(target) as tmp, open(tmp, "wb") as f:
         f.write(header.encode("ascii"))
-        f.write(V.tobytes())
+        f.write(vrec.tobytes())
         f.write(rec.tobytes())
     return target
 

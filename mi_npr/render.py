@@ -68,6 +68,21 @@ def _headlight(si: mi.SurfaceInteraction3f, ray: mi.Ray3f, valid: Any) -> Any:
     return dr.select(valid, albedo * (0.2 + 0.8 * cos), mi.Color3f(0.0))
 
 
+def _bsdf_normals(
+    si: mi.SurfaceInteraction3f, valid: Any, table: ObjectTable, ids: Any, n: Any
+) -> Any:
+    """Shading normals that BSDFs define themselves: a BSDF with a method
+    ``npr_shading_normal(si, active) -> world-space unit normal`` (such as ``npr_foliage``'s mixed
+    leaf/HLP normal) replaces ``n`` on the pixels of the shapes that use it, so the ``N`` layer
+    holds the normal the BSDF shades with. One masked call per such shape (few in a scene)."""
+    for oid, shape in table.shapes.items():
+        fn = getattr(shape.bsdf(), "npr_shading_normal", None)
+        if fn is not None:
+            mask = valid & (ids == oid)
+            n = dr.select(mask, fn(si, mask), n)
+    return n
+
+
 def trace(
     scene: mi.Scene,
     sensor: mi.Sensor,
@@ -83,10 +98,11 @@ def trace(
     out[L.Z] = dr.select(valid, dr.dot(si.p - o, f), dr.inf)
     for i, name in enumerate(L.P):
         out[name] = dr.select(valid, si.p[i], 0.0)
-    n = si.sh_frame.n
+    ids = table.lookup(si)
+    n = _bsdf_normals(si, valid, table, ids, si.sh_frame.n)
     for i, name in enumerate(L.N):
         out[name] = dr.select(valid, n[i], 0.0)
-    out[L.OBJECT_ID] = table.lookup(si)
+    out[L.OBJECT_ID] = ids
     out[L.PRIM_ID] = dr.select(valid, si.prim_index, 0)
     if shade:
         rgb = _headlight(si, ray, valid)

@@ -47,6 +47,16 @@ is the ``lines`` layer, and it is composited onto the nested integrator's beauty
      - 0
      - Also draw creases: a 4-neighbour on the same object whose normal turns by more than this
        angle, in degrees (0 = off; 2 px thick).
+   * - ``leaf_edges``
+     - integer
+     - 0
+     - Also outline every leaf primitive (``npr_leaves`` shapes) from the ``leaf_id`` layer:
+       0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px. Adds the ``leaf_id`` layer to the output.
+   * - ``bright_fade``
+     - float
+     - 0
+     - Fade the lines out where the beauty's luminance exceeds this value (none from twice it):
+       no detail in bright areas. 0 = off.
    * - ``line_color``
      - rgb
      - 0, 0, 0
@@ -66,7 +76,8 @@ The defaults draw clean 1-pixel contours on the paper's scenes at 640x480 (see
 :mod:`mi_npr.kernels.chain` for why).
 
 ``mi.render(scene)`` returns (H, W, 13): ``R G B`` (beauty with the lines), ``lines``, then the
-G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id``. ``mi_npr.render`` and
+G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id`` (and ``leaf_id`` last when
+``leaf_edges`` is on). ``mi_npr.render`` and
 ``mi-npr render`` also keep ``beauty.R/G/B``; the EXR holds every layer, the PNG the composited
 beauty.
 
@@ -92,6 +103,7 @@ import mitsuba as mi
 
 from mi_npr import layers as L
 from mi_npr.compose import with_overlay
+from mi_npr.foliage.leaves import leaf_id_layer
 from mi_npr.gbuffer import GBuffer, to_numpy
 from mi_npr.integrator import NprIntegrator
 from mi_npr.kernels import LINES_PARAMS, lines
@@ -123,10 +135,12 @@ class NprLinesIntegrator(NprIntegrator):
         check_range(self.params["near"], self.params["far"], self.PLUGIN)
 
     def aov_names(self) -> list[str]:
-        return [L.LINES, *L.GBUFFER_AOVS]
+        return [L.LINES, *L.GBUFFER_AOVS, *([L.LEAF_ID] if self.params["leaf_edges"] else [])]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         params = {k: self.params[k] for k in _CHAIN}
+        if params["leaf_edges"] and L.LEAF_ID not in gb:
+            gb = gb.with_layers({L.LEAF_ID: leaf_id_layer(scene, gb)})
         ink = to_numpy(lines(gb, **params))
         gb = gb.with_layers({L.LINES: ink}).with_metadata(**{"mi_npr/lines": json.dumps(params)})
         return with_overlay(gb, ink, self.params["line_color"])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -57,3 +58,19 @@ def run_cli(*args: str, env: dict | None = None, cwd: Path | None = None):
         timeout=600,
         check=False,
     )
+
+
+def sun_only(style: str, directory: Path) -> Path:
+    """``scenes_xml/foliage_<style>.xml`` lit by its sun alone, one sample through each pixel
+    centre (stratified, no jitter): deterministic shading, no sky sampling noise, no blending at
+    pixel edges, shadows included. Written to ``directory``; returns its path."""
+    text = (SCENES / f"foliage_{style}.xml").read_text()
+    text = re.sub(r'<emitter type="constant".*?</emitter>', "", text, flags=re.S)
+    text = text.replace(
+        '<sampler type="independent">',
+        '<sampler type="stratified"><boolean name="jitter" value="false"/>',
+    )
+    text = text.replace('value="meshes/', f'value="{SCENES}/meshes/')
+    path = Path(directory) / f"{style}_sun_only.xml"
+    path.write_text(text)
+    return path

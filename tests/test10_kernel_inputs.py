@@ -34,9 +34,10 @@ def test01_public_api():
     """The names the issue gives, exactly."""
     assert mi_npr.kernels is K
     functions = "normalize_depth depth_contours remove_isolated selective_dilation id_edges "
-    functions += "normal_edges lines"
+    functions += "normal_edges lines leaf_edges"  # leaf_edges: issue 8 (foliage)
     assert set(K.__all__) == {"LINES_PARAMS", *functions.split()}
     params = "c t t0 dilation_size dilation_iterations remove_isolated id_edges normal_edges"
+    params += " leaf_edges bright_fade"  # issue 8 (foliage)
     assert [p.name for p in K.LINES_PARAMS] == [*params.split(), "near", "far"]
 
 

@@ -99,9 +99,8 @@ def _bbox(shape: mi.Shape) -> np.ndarray:
 class IdMap:
     """Object ids of one ``id_mode`` (see the module docstring) for one scene.
 
-    ``names``: mode id -> name (1..M; 0 is the background). ``boxes``: (K, 2, 3) world-space
-    bounding boxes ``[min, max]`` of every shape, and of every component in ``"component"`` mode
-    (ray-cast mode's small-object guard, :mod:`mi_npr.contours.refine`).
+    ``names``: mode id -> name (1..M; 0 is the background). :attr:`boxes`: the world-space
+    boxes that ray-cast mode's small-object guard projects (:mod:`mi_npr.contours.refine`).
     """
 
     mode: str
@@ -110,8 +109,18 @@ class IdMap:
     base: np.ndarray  # uint32 per shape id 0..N: first slot of the shape in ``lut``
     split: np.ndarray  # uint32 per shape id 0..N: 1 if the shape's primitives have own slots
     lut: np.ndarray  # uint32 per slot: mode id
-    boxes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)))
     _jit: Any = field(default=None, repr=False)
+    _boxes: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def boxes(self) -> np.ndarray:
+        """(K, 2, 3) bounding boxes ``[min, max]`` of every shape and of every connected
+        component of a mesh, *whatever the id_mode*: the parts of one shape (the leaves of a
+        foliage mesh) can hide between corner rays as well as small shapes can, and so can the
+        holes between them. Computed on first use (only ray-cast mode needs them)."""
+        if self._boxes is None:
+            self._boxes = _part_boxes(self.table)
+        return self._boxes
 
     def apply(self, object_id: np.ndarray, prim_id: np.ndarray) -> np.ndarray:
         """Mode ids of G-buffer layers ``object_id``/``prim_id`` ((H, W) -> (H, W) uint32)."""
@@ -134,6 +143,23 @@ class IdMap:
         return dr.gather(mi.UInt32, lut, slot)
 
 
+def _part_boxes(table: ObjectTable) -> np.ndarray:
+    boxes = []
+    for shape in table.shapes.values():
+        boxes.append(_bbox(shape))
+        if shape.is_mesh() and shape.primitive_count() > 1:
+            F, V = _mesh_arrays(shape)
+            comp = face_components(F, V)
+            if comp.max() > 0:
+                lo = np.full((comp.max() + 1, 3), np.inf)
+                hi = np.full((comp.max() + 1, 3), -np.inf)
+                for j in range(3):
+                    np.minimum.at(lo, comp, V[F[:, j]])
+                    np.maximum.at(hi, comp, V[F[:, j]])
+                boxes.extend(np.stack([lo, hi], axis=1))
+    return np.asarray(boxes, np.float64).reshape(-1, 2, 3)
+
+
 def id_map(scene: mi.Scene, id_mode: str = "shape", table: ObjectTable | None = None) -> IdMap:
     """The :class:`IdMap` of ``scene`` for ``id_mode`` (``"shape"``, ``"primitive"``,
     ``"component"``)."""
@@ -144,13 +170,11 @@ def id_map(scene: mi.Scene, id_mode: str = "shape", table: ObjectTable | None = 
     split = np.zeros(n + 1, np.uint32)
     lut_parts: list[np.ndarray] = [np.zeros(1, np.uint32)]  # slot 0: the background
     names: dict[int, str] = {}
-    boxes: list[np.ndarray] = []
     slot, next_id = 1, 1
     for sid in range(1, n + 1):
         shape, name = table.shapes[sid], table.names[sid]
         base[sid] = slot
         parts = None  # per-primitive part index, when the shape is split
-        boxes.append(_bbox(shape))
         if id_mode != "shape" and shape.is_mesh() and shape.primitive_count() > 1:
             F, V = _mesh_arrays(shape)
             if id_mode == "primitive":
@@ -159,11 +183,6 @@ def id_map(scene: mi.Scene, id_mode: str = "shape", table: ObjectTable | None = 
                 comp = face_components(F, V)
                 if comp.max() > 0:
                     parts = comp
-                    lo = np.full((comp.max() + 1, 3), np.inf)
-                    hi = np.full((comp.max() + 1, 3), -np.inf)
-                    for j in range(3):
-                        np.minimum.at(lo, comp, V[F[:, j]])
-                        np.maximum.at(hi, comp, V[F[:, j]])
         if parts is None:
             names[next_id] = name
             lut_parts.append(np.array([next_id], np.uint32))
@@ -173,11 +192,9 @@ def id_map(scene: mi.Scene, id_mode: str = "shape", table: ObjectTable | None = 
         sep = "/" if id_mode == "primitive" else "#"
         for c in range(count):
             names[next_id + c] = f"{name}{sep}{c}"
-            if id_mode == "component":
-                boxes.append(np.stack([lo[c], hi[c]]))
         split[sid] = 1
         lut_parts.append((next_id + parts).astype(np.uint32))
         slot += len(parts)
         next_id += count
     lut = np.concatenate(lut_parts)
-    return IdMap(id_mode, names, table, base, split, lut, np.asarray(boxes).reshape(-1, 2, 3))
+    return IdMap(id_mode, names, table, base, split, lut)

@@ -10,11 +10,13 @@ from them; both cast rays on demand instead of rendering an ID buffer. :func:`tr
    rays every 8 pixels; the last row and column of the image close the grid). With separate
    corners per macro pixel (pixels 0 and 7, then 8 and 15, ...), a contour running between pixel
    columns 7 and 8 would be seen by neither macro pixel, and 4x more rays would be cast.
-2. **Small-object guard** (scene knowledge, not in the paper). Every shape (and, in ``component``
-   mode, every mesh component) whose projected bounding box is at most two macro pixels wide *or*
-   tall can fall between the corner rays; every pixel of that box (clipped to the image) is cast,
-   in one batch. Its cost is proportional to the small objects' screen area. Objects whose box
-   crosses the camera plane, and sensors without ``sample_direction``, are not guarded.
+2. **Small-object guard** (scene knowledge, not in the paper). Every shape and every connected
+   component of a mesh (in every ``id_mode``: the leaves of one foliage mesh, and the gaps
+   between them, hide between corner rays like small shapes do) whose projected bounding box is
+   at most two macro pixels wide *or* tall can fall between the corner rays; every pixel of that
+   box (clipped to the image) is cast, in one batch. Its cost is proportional to the small
+   objects' screen area. Objects whose box crosses the camera plane, and sensors without
+   ``sample_direction``, are not guarded.
 3. **Following** (section 3.2). Every pair of 4-adjacent known pixels with different ids is a crack
    of a contour (see :mod:`mi_npr.contours.trace`); the follower needs, for each crack, the two
    pixels ahead of it (and, to grow in both directions at once, the two behind it). Those are cast

@@ -7,6 +7,7 @@ Section 5.1 of the thesis, plus edges from the exact G-buffer:
 - :func:`remove_isolated` -- isolated-pixel removal, eq. 5.2;
 - :func:`selective_dilation` -- the depth pre-filter, eqs. 5.3-5.4;
 - :func:`id_edges`, :func:`normal_edges` -- object-ID and crease edges;
+- :func:`leaf_edges` -- the outline of every leaf primitive (foliage, ``leaf_id`` layer);
 - :func:`lines` -- the whole chain on a :class:`~mi_npr.gbuffer.GBuffer` (the ``lines`` layer).
 
 Inputs are numpy arrays or Dr.Jit tensors, checked on entry (a
@@ -19,13 +20,14 @@ from __future__ import annotations
 
 from .chain import LINES_PARAMS, lines
 from .depth_lines import depth_contours, normalize_depth, remove_isolated
-from .edges import id_edges, normal_edges
+from .edges import id_edges, leaf_edges, normal_edges
 from .morphology import selective_dilation
 
 __all__ = [
     "LINES_PARAMS",
     "depth_contours",
     "id_edges",
+    "leaf_edges",
     "lines",
     "normal_edges",
     "normalize_depth",

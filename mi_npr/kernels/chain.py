@@ -25,6 +25,10 @@ name                   type     default   meaning
 ``id_edges``           bool     false     add object-ID edges (2 px thick)
 ``normal_edges``       float    0         add creases sharper than this angle, in degrees, on one
                                           object (2 px thick); 0 = off
+``leaf_edges``         int      0         add the outline of every leaf from the ``leaf_id``
+                                          layer: 0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px
+``bright_fade``        float    0         fade lines out where the beauty's luminance exceeds
+                                          this: full below it, none from twice it; 0 = off
 ``near``, ``far``      float    unset     depth range mapped to [0, 1]; unset = the frame's
                                           finite ``Z`` range
 =====================  =======  ========  ======================================================
@@ -35,6 +39,12 @@ scenes at 640x480 this draws every silhouette as a clean 1-px line, while the st
 steps (the floor near the horizon, sphere rims) stay below it. ID and normal edges are off because
 they are 2 px thick (see :mod:`mi_npr.kernels.edges`); turn them on for touching or intersecting
 objects (scene 4) and for creases.
+
+Foliage (issue 8, thesis section 4.3): ``leaf_edges`` outlines every leaf primitive, which depth
+contours alone miss where leaves overlap at nearly equal depth (see
+:func:`~mi_npr.kernels.leaf_edges`); ``bright_fade`` gives the thesis's "lack of detail in bright
+areas" (Fig. 4.8 b): the line strength is multiplied by ``clip(2 - Y / bright_fade, 0, 1)``, with
+``Y`` the Rec. 709 luminance of the raw beauty (``beauty.R/G/B`` if present, else ``R G B``).
 """
 
 from __future__ import annotations
@@ -55,13 +65,19 @@ from ._stencil import (
     float_image,
     id_image,
     nonnegative,
+    opaque,
     same_shape,
     tensor,
     unit_interval,
 )
 from .depth_lines import check_range, contours, depth_normalizer, isolated_removed
-from .edges import angle, id_edge, normal_edge
+from .edges import angle, edge_width, id_edge, leaf_edge, normal_edge
 from .morphology import dilated, iteration_count, window_size
+
+
+def _leaf_width(v: Any) -> str | None:
+    return None if v == 0 else edge_width(v)
+
 
 LINES_PARAMS: tuple[Param, ...] = (
     Param("c", float, 40.0, "eq. 5.1 gain on the normalised depth difference", nonnegative),
@@ -72,6 +88,8 @@ LINES_PARAMS: tuple[Param, ...] = (
     Param("remove_isolated", bool, True, "remove isolated line pixels (eq. 5.2)"),
     Param("id_edges", bool, False, "add object-ID edges"),
     Param("normal_edges", float, 0.0, "add creases sharper than this (degrees; 0 = off)", angle),
+    Param("leaf_edges", int, 0, "outline every leaf: 0 off, 1 or 2 px", _leaf_width),
+    Param("bright_fade", float, 0.0, "fade lines above this luminance (0 = off)", nonnegative),
     Param("near", float, None, "depth mapped to 0 (unset: nearest finite Z)", finite),
     Param("far", float, None, "depth mapped to 1 (unset: farthest finite Z)", finite),
 )
@@ -88,7 +106,8 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
     """The gray-level line image of a G-buffer (the ``lines`` layer), see the module docstring.
 
     ``gbuffer`` is a :class:`~mi_npr.gbuffer.GBuffer` (or any mapping of layer names to (H, W)
-    arrays) with ``Z``, plus ``object_id`` for ID edges and ``N.X N.Y N.Z`` for normal edges.
+    arrays) with ``Z``, plus ``object_id`` for ID edges, ``N.X N.Y N.Z`` for normal edges,
+    ``leaf_id`` for leaf edges and ``R G B`` (or ``beauty.R/G/B``) for ``bright_fade``.
     ``params`` are those of :data:`LINES_PARAMS`; unknown names and bad values raise
     :class:`~mi_npr.errors.ParameterError` naming the parameter.
 
@@ -113,6 +132,7 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
         dr.eval(ink)
         ink = isolated_removed(Field(ink, grid), p["t0"])
 
+    z_raw = Field(z, grid, lambda v: dr.select(dr.isnan(v), dr.inf, v))
     edge = None
     if p["id_edges"] or p["normal_edges"] > 0:
         why = "needed by id_edges and normal_edges"
@@ -127,6 +147,25 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
             planes = [q for q, _ in normals]
             crease = normal_edge([Field(q, grid) for q in planes], id_field, p["normal_edges"])
             edge = crease if edge is None else edge | crease
+    if p["leaf_edges"]:
+        leaf, shape_l = id_image(_layer(gbuffer, L.LEAF_ID, "needed by leaf_edges"), L.LEAF_ID)
+        same_shape({L.Z: shape, L.LEAF_ID: shape_l})
+        outline = leaf_edge(Field(leaf, grid), z_raw, p["leaf_edges"])
+        edge = outline if edge is None else edge | outline
     if edge is not None:
         ink = dr.select(edge, 1.0, ink)
+    if p["bright_fade"] > 0:
+        ink = ink * _fade(gbuffer, shape, p["bright_fade"])
     return tensor(ink, shape)
+
+
+def _fade(gbuffer: Mapping[str, Any], shape: tuple[int, int], level: float) -> Any:
+    """``clip(2 - Y / level, 0, 1)`` of the raw beauty's luminance ``Y`` (lazy)."""
+    names = L.RAW_RGB if L.RAW_RGB[0] in gbuffer else L.RGB
+    planes = []
+    for n in names:
+        q, s = float_image(_layer(gbuffer, n, "needed by bright_fade"), n)
+        same_shape({L.Z: shape, n: s})
+        planes.append(dr.select(dr.isfinite(q), q, 0.0))
+    Y = dr.fma(0.2126, planes[0], dr.fma(0.7152, planes[1], 0.0722 * planes[2]))
+    return dr.clip(2.0 - Y / opaque(level), 0.0, 1.0)

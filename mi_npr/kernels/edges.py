@@ -15,7 +15,14 @@ the image repeat the border pixel, so the image border itself is never an edge:
   ``angle_deg`` with the normal of some 4-neighbour on the *same* object (also 2 px thick).
   Normals need not be unit length; a zero, NaN or inf normal never makes an edge.
 
-Both return a ``drjit.llvm.ad.TensorXf`` of 0 and 1, shape (H, W).
+- *Leaf edge* (issue 8): a pixel whose ``leaf_id`` differs from some 4-neighbour's, where at
+  least one of the two is a leaf (id != 0). Leaves overlap at nearly equal depth, so depth
+  contours miss part of their outlines; the per-leaf id finds all of them. ``width=2`` marks both
+  sides (2 px, like ID edges); ``width=1`` marks only the *nearer* pixel of each pair (smaller
+  ``Z``; on equal depth the larger id), so every outline is 1 px thick and belongs to the leaf in
+  front, as eq. 5.1 puts depth lines on the near side. NaN depth reads as +inf (background).
+
+All return a ``drjit.llvm.ad.TensorXf`` of 0 and 1, shape (H, W).
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ from ._stencil import (
     CROSS,
     Field,
     Grid,
+    float_image,
     id_image,
     opaque,
     require,
@@ -110,4 +118,48 @@ def normal_edges(N: Any, object_id: Any, angle_deg: float) -> TensorXf:
     shape = same_shape({"N": shape_n, "object_id": shape_i})
     grid = Grid(shape)
     edge = normal_edge([Field(p, grid) for p in planes], Field(ids, grid), angle_deg)
+    return tensor(dr.select(edge, 1.0, 0.0), shape)
+
+
+def leaf_edge(ids: Field, depth: Field, width: int) -> Bool:
+    """Pixels on a leaf outline (lazy): a 4-neighbour has another leaf id (one of the two != 0);
+    with ``width == 1`` only where this pixel is the nearer one of the pair."""
+    centre, z0 = ids.at(), depth.at()
+    edge = None
+    for dy, dx in CROSS:
+        other = ids.at(dy, dx)
+        differs = other != centre
+        if width == 1:
+            z1 = depth.at(dy, dx)
+            differs &= (z1 > z0) | ((z1 == z0) & (centre > other))
+        edge = differs if edge is None else edge | differs
+    return edge
+
+
+def edge_width(v: Any) -> str | None:
+    """The rule for a leaf-edge width: 1 or 2 pixels."""
+    return None if v in (1, 2) and not isinstance(v, bool) else "must be 1 or 2 (pixels)"
+
+
+def _inf_for_nan(z: Any) -> Any:
+    return dr.select(dr.isnan(z), dr.inf, z)
+
+
+def leaf_edges(leaf_id: Any, Z: Any, width: int = 1) -> TensorXf:
+    """1 on the outline of every leaf (the ``leaf_id`` layer), else 0; see the module docstring.
+
+    ``leaf_id`` is an (H, W) integer image (0 = not a leaf), ``Z`` the (H, W) depth (``+inf`` or
+    NaN on the background), ``width`` 1 (the nearer side only) or 2 (both sides).
+
+    >>> import numpy as np
+    >>> ids = np.array([[1, 1, 2, 2]], np.uint32); Z = np.array([[1, 1, 2, 2]], np.float32)
+    >>> np.asarray(leaf_edges(ids, Z, 1)), np.asarray(leaf_edges(ids, Z, 2))
+    (array([[0., 1., 0., 0.]], dtype=float32), array([[0., 1., 1., 0.]], dtype=float32))
+    """
+    require("width", width, edge_width)
+    ids, shape_i = id_image(leaf_id, "leaf_id")
+    z, shape_z = float_image(Z, "Z")
+    shape = same_shape({"leaf_id": shape_i, "Z": shape_z})
+    grid = Grid(shape)
+    edge = leaf_edge(Field(ids, grid), Field(z, grid, _inf_for_nan), width)
     return tensor(dr.select(edge, 1.0, 0.0), shape)
