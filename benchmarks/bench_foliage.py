@@ -31,16 +31,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 import tracemalloc
 from pathlib import Path
+
+import _common
 
 HERE = Path(__file__).resolve().parent
 N_LEAVES = 100_000
@@ -202,13 +201,7 @@ def _cold_child(work: str, spp: int) -> None:
 
 
 def measure_cold(work: Path, spp: int, threads: int) -> dict:
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, DRJIT_CACHE_DIR=cache)
-        cmd = [sys.executable, __file__, "--cold-child", str(work), "--spp", str(spp)]
-        out = subprocess.run(
-            [*cmd, "--threads", str(threads)], capture_output=True, text=True, env=env, check=True
-        )
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return _common.cold_run(__file__, work, "--spp", spp, "--threads", threads)
 
 
 def main() -> int:
@@ -259,29 +252,19 @@ def main() -> int:
         f"process peak RSS {res['peak_rss_mb']:.0f} MB, Dr.Jit watermark "
         f"{res['drjit_watermark_mb']:.0f} MB"
     )
-    report = {
-        "benchmark": "bench_foliage",
-        "date": time.strftime("%Y-%m-%dT%H:%M:%S"),
-        "machine": {
-            "cpu_count": os.cpu_count(),
-            "platform": platform.platform(),
-            "python": platform.python_version(),
-        },
-        "mi_npr": mi_npr.__version__,
-        "llvm": mi_npr.LLVM.chosen.describe() if mi_npr.LLVM and mi_npr.LLVM.chosen else None,
-        "threads": args.threads,
-        "repeat": repeat,
-        "spp": args.spp,
-        "size": [W, H],
-        "anchors": {
+    path = _common.write_report(
+        "bench_foliage",
+        args.out,
+        threads=args.threads,
+        repeat=repeat,
+        spp=args.spp,
+        size=[W, H],
+        anchors={
             "load": "Mitsuba's ply plugin loading the same leaf mesh from a PLY file",
             "render": "Mitsuba's direct integrator, same mesh, plain diffuse BSDF, same spp",
         },
-        "results": res,
-    }
-    args.out.mkdir(parents=True, exist_ok=True)
-    path = args.out / "bench_foliage.json"
-    path.write_text(json.dumps(report, indent=2))
+        results=res,
+    )
     print(f"\nwrote {path}")
     return 0
 
