@@ -288,21 +288,17 @@ def _cmd_best_view(args: argparse.Namespace) -> int:
 
 
 def _cmd_foliage(args: argparse.Namespace) -> int:
-    from .errors import ParameterError
-    from .foliage.styles import load_plant, scene_files, write_foliage_scene
+    from .foliage.styles import make_scene
 
-    source = Path(args.input).resolve()
-    if any(p.resolve() == source for p in scene_files(args.output).values()):
-        raise ParameterError(f"{args.input}: -o {args.output} would overwrite the input plant")
-    plant = load_plant(args.input, seed=args.seed, leaves=args.leaves)
-    written = write_foliage_scene(
+    plant, written = make_scene(
+        args.input,
         args.output,
-        plant,
         args.style,
         leaf_size=args.leaf_size,
         abstraction=args.abstraction,
         k=args.hlps,
         seed=args.seed,
+        leaves=args.leaves,
     )
     print(f"{args.input}: {', '.join(str(p) for p in written)} ({len(plant)} leaves)")
     return 0

@@ -68,6 +68,48 @@ def merge(*meshes: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarra
     return np.concatenate(Vs), np.concatenate(Fs)
 
 
+def weld(V: np.ndarray) -> np.ndarray:
+    """Index of each vertex among the distinct positions of ``V`` ((n, 3) -> (n,) int64)."""
+    if len(V) == 0:
+        return np.zeros(0, np.int64)
+    _, inverse = np.unique(np.asarray(V), axis=0, return_inverse=True)
+    return inverse.reshape(-1).astype(np.int64)
+
+
+def face_components(F: np.ndarray, V: np.ndarray | None = None) -> np.ndarray:
+    """Connected component of each face ((m, 3) -> (m,) int64), numbered 0.. by lowest face.
+
+    Faces sharing a vertex are connected; with ``V`` given, vertices are first welded by position
+    (PLY files duplicate seam vertices: a sphere would fall apart into strips without it).
+    Label propagation with pointer jumping (numpy, no per-face Python loop).
+    """
+    F = np.asarray(F, np.int64).reshape(-1, 3)
+    if len(F) == 0:
+        return np.zeros(0, np.int64)
+    if V is not None:
+        F = weld(V)[F]
+    n = int(F.max()) + 1
+    lab = np.arange(n, dtype=np.int64)
+    while True:
+        m = lab[F].min(axis=1)
+        new = lab.copy()
+        for j in range(3):
+            np.minimum.at(new, F[:, j], m)
+        while True:  # pointer jumping: follow labels to their roots
+            nxt = new[new]
+            if np.array_equal(nxt, new):
+                break
+            new = nxt
+        if np.array_equal(new, lab):
+            break
+        lab = new
+    face_lab = lab[F[:, 0]]
+    _, first, inverse = np.unique(face_lab, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    return rank[inverse.reshape(-1)]
+
+
 def write_ply(
     path: str | os.PathLike[str],
     V: np.ndarray,

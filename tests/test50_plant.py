@@ -11,8 +11,7 @@ from scipy.sparse.csgraph import connected_components
 import mi_npr
 from mi_npr import foliage as fo
 from mi_npr.errors import InputError, ParameterError
-from mi_npr.foliage.plant import face_components
-from mi_npr.meshes import write_ply
+from mi_npr.meshes import face_components, write_ply
 
 RNG = np.random.default_rng(50)
 
@@ -53,12 +52,12 @@ def test01_components_match_scipy():
     V, F = random_leaves(40)
     # Join some leaves by sharing vertices, as a twig would.
     F = np.concatenate([F, [[F[0, 0], F[5, 1], F[9, 2]]]])
-    assert same_partition(face_components(F, len(V)), reference_components(F, len(V)))
+    assert same_partition(face_components(F), reference_components(F, len(V)))
     # A long chain (a worst case for label propagation).
     n = 300
     chain = np.array([(i, i + 1, i + 2) for i in range(n)])
-    assert len(set(face_components(chain, n + 2).tolist())) == 1
-    assert face_components(np.zeros((0, 3), np.int64), 0).shape == (0,)
+    assert len(set(face_components(chain).tolist())) == 1
+    assert face_components(np.zeros((0, 3), np.int64)).shape == (0,)
 
 
 def test02_leaf_records_brute_force():

@@ -30,6 +30,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError
+from ..meshes import face_components
 from ..scene import ObjectTable, object_table
 
 ID_MODES = ("shape", "primitive", "component")
@@ -39,47 +40,6 @@ def check_id_mode(id_mode: str) -> str:
     if id_mode not in ID_MODES:
         raise ParameterError(f"id_mode = {id_mode!r}: expected one of {', '.join(ID_MODES)}")
     return id_mode
-
-
-def weld(V: np.ndarray) -> np.ndarray:
-    """Index of each vertex among the distinct positions of ``V`` ((n, 3) -> (n,) int64)."""
-    if len(V) == 0:
-        return np.zeros(0, np.int64)
-    _, inverse = np.unique(np.asarray(V), axis=0, return_inverse=True)
-    return inverse.reshape(-1).astype(np.int64)
-
-
-def face_components(F: np.ndarray, V: np.ndarray | None = None) -> np.ndarray:
-    """Connected component of each face ((m, 3) -> (m,) int64), numbered 0.. by lowest face.
-
-    Faces sharing a vertex are connected; with ``V`` given, vertices are first welded by position.
-    Label propagation with pointer jumping (numpy, no per-face Python loop).
-    """
-    F = np.asarray(F, np.int64).reshape(-1, 3)
-    if len(F) == 0:
-        return np.zeros(0, np.int64)
-    if V is not None:
-        F = weld(V)[F]
-    n = int(F.max()) + 1
-    lab = np.arange(n, dtype=np.int64)
-    while True:
-        m = lab[F].min(axis=1)
-        new = lab.copy()
-        for j in range(3):
-            np.minimum.at(new, F[:, j], m)
-        while True:  # pointer jumping: follow labels to their roots
-            nxt = new[new]
-            if np.array_equal(nxt, new):
-                break
-            new = nxt
-        if np.array_equal(new, lab):
-            break
-        lab = new
-    face_lab = lab[F[:, 0]]
-    _, first, inverse = np.unique(face_lab, return_index=True, return_inverse=True)
-    rank = np.empty(len(first), np.int64)
-    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-    return rank[inverse.reshape(-1)]
 
 
 def _mesh_arrays(shape: mi.Shape) -> tuple[np.ndarray, np.ndarray]:

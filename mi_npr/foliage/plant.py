@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, ParameterError
-from ..meshes import read_ply, write_ply
+from ..meshes import face_components, read_ply, write_ply
 
 LEAF_MODES = ("components", "triangles")
 
@@ -184,7 +184,7 @@ class Plant:
             z = np.zeros((0, 3))
             return cls(z, z, z, np.zeros(0), np.zeros(0), None, name)
         if leaves == "components":
-            label = face_components(F, len(V))
+            label = face_components(F)  # leaves share vertices by index: no welding
         else:
             label = np.arange(len(F))
         return _leaves_from_faces(V, F, label, name)
@@ -198,33 +198,6 @@ class Plant:
         attrs.update(zip(_POINT_PROPS[3:6], self.axes.T, strict=True))
         attrs.update(size=self.sizes, area=self.areas)
         return write_ply(path, self.centers, np.zeros((0, 3), np.uint32), attrs)
-
-
-def face_components(F: np.ndarray, n_vertices: int) -> np.ndarray:
-    """Connected-component label (0..c-1) of every face of ``F`` (faces sharing a vertex connect).
-
-    Vectorised union-find: hook every edge's two roots onto the smaller one, then compress paths by
-    pointer jumping, until nothing changes (a few passes for leaf-sized components).
-    """
-    F = np.asarray(F, dtype=np.int64).reshape(-1, 3)
-    parent = np.arange(n_vertices, dtype=np.int64)
-    a = np.concatenate([F[:, 0], F[:, 1]])
-    b = np.concatenate([F[:, 1], F[:, 2]])
-    while True:
-        ra, rb = parent[a], parent[b]
-        lo = np.minimum(ra, rb)
-        before = parent.copy()
-        np.minimum.at(parent, ra, lo)
-        np.minimum.at(parent, rb, lo)
-        while True:  # pointer jumping until every vertex points at a root
-            nxt = parent[parent]
-            if np.array_equal(nxt, parent):
-                break
-            parent = nxt
-        if np.array_equal(parent, before):
-            break
-    _, label = np.unique(parent[F[:, 0]], return_inverse=True)
-    return label.reshape(-1)
 
 
 def _leaves_from_faces(V: np.ndarray, F: np.ndarray, label: np.ndarray, name: str) -> Plant:

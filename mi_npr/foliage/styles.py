@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..io._atomic import atomic_output, check_writable_dir
+from ..io import check_writable_dir, write_text
 from ..meshes import write_ply
 from .hlp import HLPSet, build_hlps
 from .leaves import leaf_template
@@ -278,12 +278,6 @@ def load_plant(source: str, seed: int = 0, leaves: str = "components") -> Plant:
     return read_plant(source, leaves=leaves)
 
 
-def _write_text(path: Path, text: str) -> Path:
-    with atomic_output(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
-        f.write(text)
-    return path
-
-
 def write_foliage_scene(
     output: str | os.PathLike[str],
     plant: Plant,
@@ -316,8 +310,32 @@ def write_foliage_scene(
     written = [plant.save(files["plant"]), h.save(files["hlps"])]
     if plant.wood is not None:
         written.append(write_ply(files["wood"], *plant.wood))
-    written.append(_write_text(out, text))
+    written.append(write_text(out, text))
     return written
+
+
+def make_scene(
+    source: str,
+    output: str | os.PathLike[str],
+    style_name: str,
+    *,
+    leaf_size: float | None = None,
+    abstraction: float | None = None,
+    k: int | None = None,
+    seed: int = 0,
+    leaves: str = "components",
+) -> tuple[Plant, list[Path]]:
+    """What ``mi-npr foliage`` does: load the plant ``source`` (:func:`load_plant`) and write its
+    scene (:func:`write_foliage_scene`), refusing outputs that would overwrite ``source``."""
+    if not source.startswith("procedural:"):
+        src = Path(source).resolve()
+        if any(p.resolve() == src for p in scene_files(output).values()):
+            raise ParameterError(f"{source}: -o {output} would overwrite the input plant")
+    plant = load_plant(source, seed=seed, leaves=leaves)
+    written = write_foliage_scene(
+        output, plant, style_name, leaf_size=leaf_size, abstraction=abstraction, k=k, seed=seed
+    )
+    return plant, written
 
 
 def scene_files(output: str | os.PathLike[str], assets: str | None = None) -> dict[str, Path]:
