@@ -75,11 +75,11 @@ is the ``lines`` layer, and it is composited onto the nested integrator's beauty
 The defaults draw clean 1-pixel contours on the paper's scenes at 640x480 (see
 :mod:`mi_npr.kernels.chain` for why).
 
-``mi.render(scene)`` returns (H, W, 13): ``R G B`` (beauty with the lines), ``lines``, then the
-G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id`` (and ``leaf_id`` last when
-``leaf_edges`` is on). ``mi_npr.render`` and
-``mi-npr render`` also keep ``beauty.R/G/B``; the EXR holds every layer, the PNG the composited
-beauty.
+``mi.render(scene)`` returns (H, W, 16): ``R G B`` (beauty with the lines), ``lines``, the
+untouched beauty ``beauty.R beauty.G beauty.B``, then the G-buffer channels ``Z P.X P.Y P.Z N.X
+N.Y N.Z object_id prim_id`` (and ``leaf_id`` last when ``leaf_edges`` is on): the layout of every
+mi-npr integrator that draws on the beauty. ``mi-npr render`` writes every layer to the EXR and
+the composited beauty to the PNG.
 
 XML::
 
@@ -135,7 +135,8 @@ class NprLinesIntegrator(NprIntegrator):
         check_range(self.params["near"], self.params["far"], self.PLUGIN)
 
     def aov_names(self) -> list[str]:
-        return [L.LINES, *L.GBUFFER_AOVS, *([L.LEAF_ID] if self.params["leaf_edges"] else [])]
+        extra = [L.LEAF_ID] if self.params["leaf_edges"] else []
+        return [L.LINES, *L.RAW_RGB, *L.GBUFFER_AOVS, *extra]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         params = {k: self.params[k] for k in _CHAIN}

@@ -34,9 +34,9 @@ def test01_all_background_closed_form(write_scene):
 def test02_mi_render_returns_composited_beauty_lines_then_gbuffer(write_scene):
     scene = mi_npr.load_scene(write_scene(BALL, integrator=lines_integrator(), spp=2))
     integ = scene.integrator()
-    assert integ.aov_names() == [L.LINES, *L.GBUFFER_AOVS]
+    assert integ.aov_names() == [L.LINES, *L.RAW_RGB, *L.GBUFFER_AOVS]
     img = mi.render(scene, seed=2)
-    names = [*L.RGB, L.LINES, *L.GBUFFER_AOVS]
+    names = [*L.RGB, L.LINES, *L.RAW_RGB, *L.GBUFFER_AOVS]
     assert tuple(img.shape) == (24, 32, len(names))
     gb = mi_npr.render(scene, seed=2)
     a = np.asarray(img)

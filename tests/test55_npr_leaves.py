@@ -80,7 +80,7 @@ def test02_leaf_id_layer_and_npr_lines(files):
     path = write(d, body, "two.xml", integrator=lines)
     scene = mi_npr.load_scene(path)
     gb = mi_npr.render(scene)
-    assert scene.integrator().aov_names() == [L.LINES, *L.GBUFFER_AOVS, L.LEAF_ID]
+    assert scene.integrator().aov_names() == [L.LINES, *L.RAW_RGB, *L.GBUFFER_AOVS, L.LEAF_ID]
     # Quads: 2 triangles per leaf, so leaf_id = prim_id // 2 + 1; shapes are numbered by name
     # ("leaves" < "more"), and the second one's ids follow the first one's.
     ids = gb.object_id
