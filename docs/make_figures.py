@@ -115,7 +115,31 @@ def foliage_panel() -> Path:
     return path
 
 
+def overview_panel() -> Path:
+    """What ``make demo`` makes of scene 1: depth lines, apparent contours, ray-tree edges."""
+    path_xml = ROOT / "scenes_xml" / "scene1.xml"
+    size = {"width": 400, "height": 300, "spp": 64}
+    lines = mi_npr.render(path_xml, integrator="npr_lines", **size)
+    contours, _ = mi_npr.contours.render_contours(path_xml, **size)
+    edges = mi_npr.raytree.render(path_xml, **size)
+    panels = [
+        (lines, "npr_lines: depth contours (eqs. 5.1-5.4)"),
+        (contours, "npr_contours: apparent contours of real objects"),
+        (edges, "npr_raytree: real / reflection / refraction / shadow"),
+    ]
+    fig, ax = plt.subplots(1, 3, figsize=(15, 3.9))
+    for a, (gb, title) in zip(ax, panels, strict=True):
+        a.imshow(mi_npr.io.to_rgb8(gb.beauty))
+        a.set_title(title)
+        a.axis("off")
+    fig.tight_layout()
+    path = OUT / "overview_scene1.png"
+    fig.savefig(path, dpi=80, bbox_inches="tight")
+    return path
+
+
 PANELS = {
+    "overview": overview_panel,
     "gbuffer": gbuffer_panel,
     "lines": lines_panel,
     "contours": contours_panel,

@@ -59,3 +59,17 @@ def test04_cli_ignore(tmp_path, capsys):
 
     info = json.loads(capsys.readouterr().out)
     assert info["origin"][1] > info["target"][1]
+
+
+def test05_ignored_objects_leave_the_framing():
+    scene = mi_npr.load_scene(SCENES / "scene3.xml", width=32, height=24)
+    table = mi_npr.object_table(scene)
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for k, shape in table.shapes.items():
+        if table.names[k] != "floor":
+            lo = np.minimum(lo, np.asarray(shape.bbox().min, np.float64).ravel())
+            hi = np.maximum(hi, np.asarray(shape.bbox().max, np.float64).ravel())
+    bv = vp.best_view(scene, "pb", depth=0, res=16, ignore=["floor"])
+    np.testing.assert_allclose(bv.target, (lo + hi) / 2, rtol=1e-5)
+    whole = vp.best_view(scene, "pb", depth=0, res=16)
+    assert bv.radius < whole.radius  # the 12 x 12 floor no longer sets the distance

@@ -17,6 +17,7 @@ the mixed normal ``normalize((1 - a) n_leaf + a n_hlp)`` and puts it in the G-bu
 
 from __future__ import annotations
 
+from . import styles
 from .hlp import ISO, HLPSet, build_hlps
 from .leaves import (
     ORIENTATIONS,
@@ -30,12 +31,14 @@ from .leaves import (
 )
 from .plant import Plant, read_plant
 from .procedural import procedural_tree
+from .styles import STYLES, make_scene
 
 __all__ = [
     "ISO",
     "ORIENTATIONS",
     "PLACEMENTS",
     "SHAPES",
+    "STYLES",
     "HLPSet",
     "LeafTemplate",
     "Leaves",
@@ -44,6 +47,8 @@ __all__ = [
     "leaf_id_layer",
     "leaf_template",
     "make_leaves",
+    "make_scene",
     "procedural_tree",
     "read_plant",
+    "styles",
 ]

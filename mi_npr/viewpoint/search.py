@@ -24,9 +24,10 @@ Defaults, where the paper leaves them open:
   sphere just fits in the image (2.61 R for a square 45 degree view). With a ``target`` away
   from the sphere's centre, ``R`` grows by that distance, so the scene still fits.
 - ``ignore``: names of objects (a floor, a backdrop) whose pixels count as background: they
-  still hide what is behind them, but add nothing to any measure, and their polygons leave
-  ``n`` (eq. 1). Large flat polygons otherwise decide most searches (a floor seen from straight
-  above or below fills the image with one or two faces).
+  still hide what is behind them, but add nothing to any measure, their polygons leave ``n``
+  (eq. 1), and the default ``target`` and ``radius`` frame the other objects only. Large flat
+  polygons otherwise decide most searches (a floor seen from straight above or below fills the
+  image with one or two faces).
 - ``up``: the world axis closest to the scene sensor's up vector (+y for a camera placed with
   ``lookat up="0, 1, 0"``, however it is tilted), or the world axis least aligned with the view
   direction where that is too close to it (:func:`~mi_npr.viewpoint.idbuffer.view_frame`).
@@ -101,8 +102,6 @@ class Viewing:
 
 def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray | None:
     """The area-table columns that stay when the objects named ``ignore`` are ignored."""
-    if isinstance(ignore, str):
-        ignore = (ignore,)
     if not ignore:
         return None
     by_name = {v: k for k, v in polys.table.names.items()}
@@ -119,10 +118,23 @@ def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray
     return keep
 
 
-def _bounding_sphere(scene: mi.Scene) -> tuple[np.ndarray, float]:
+def _bounding_sphere(
+    scene: mi.Scene, polys: idbuffer.Polygons | None = None, ignore: Sequence[str] = ()
+) -> tuple[np.ndarray, float]:
+    """The scene's bounding sphere, or that of the objects not in ``ignore`` (a floor left out
+    of the measures is left out of the framing too)."""
     if not scene.shapes():
         return np.zeros(3), 0.0
-    bs = scene.bbox().bounding_sphere()
+    bb = scene.bbox()
+    if ignore and polys is not None:
+        kept = [s for k, s in polys.table.shapes.items() if polys.table.names[k] not in ignore]
+        if kept:
+            bb = mi.ScalarBoundingBox3f()
+            for shape in kept:
+                b = shape.bbox()
+                bb.expand(mi.ScalarPoint3f(np.asarray(b.min, np.float64).ravel()[:3]))
+                bb.expand(mi.ScalarPoint3f(np.asarray(b.max, np.float64).ravel()[:3]))
+    bs = bb.bounding_sphere()
     c = np.asarray(bs.center, np.float64).ravel()[:3]
     r = float(np.asarray(bs.radius).ravel()[0])
     if not (np.all(np.isfinite(c)) and math.isfinite(r)):
@@ -159,7 +171,10 @@ def viewing(
     if not 0.0 < fov < 180.0:
         raise ParameterError(f"fov = {fov!r}: must be in (0, 180) degrees")
     size = idbuffer.image_size(res, aspect)
-    centre, R = _bounding_sphere(scene)
+    polys = idbuffer.polygons(scene)
+    ignore = (ignore,) if isinstance(ignore, str) else tuple(ignore)
+    keep = _kept_columns(polys, ignore)  # checks the names first
+    centre, R = _bounding_sphere(scene, polys, ignore)
     if target is None:
         tgt = centre
     else:
@@ -177,8 +192,7 @@ def viewing(
         or not (math.isfinite(radius) and radius > 0)
     ):
         raise ParameterError(f"radius = {radius!r}: must be a positive number")
-    polys = idbuffer.polygons(scene)
-    return Viewing(tgt, float(radius), fov, size, up, polys, _kept_columns(polys, ignore))
+    return Viewing(tgt, float(radius), fov, size, up, polys, keep)
 
 
 def qualities(
