@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -56,6 +57,13 @@ def load_scene(scene: str | os.PathLike[str] | mi.Scene, **defines: Any) -> mi.S
     try:
         return mi.load_file(path, optimize=False, **values)
     except Exception as e:  # Mitsuba raises RuntimeError for every parse/instantiation problem
+        unused = re.findall(r"\$(\w+)=", str(e)) if "unused parameters" in str(e) else []
+        if unused:
+            known = ", ".join(sorted(declared_defaults(path))) or "none"
+            raise SceneError(
+                f"{path}: -D {', '.join(unused)}: the scene uses no such parameter "
+                f"(Found unused parameters; its <default>s: {known})"
+            ) from None
         msg = one_line(e)
         if path not in msg:
             msg = f"{path}: {msg}"
