@@ -5,14 +5,24 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from . import _variant, layers
+from . import _llvm, _variant, layers
 from ._variant import DEFAULT_VARIANT, register_plugins, set_variant
 from .errors import InputError, NprError, OutputError, ParameterError, SceneError
 from .gbuffer import Camera, GBuffer
 
+#: Why the requested variant could not be activated at import (the ``mi-npr`` command only,
+#: which reports it on one line; anywhere else the import raises it).
+STARTUP_ERROR: Exception | None = None
+
 _variant.install()
 if mi.variant() is None:
-    set_variant()
+    try:
+        set_variant(_llvm.requested_variant())
+    except (ParameterError, _llvm.LLVMNotFoundError) as e:
+        if not _llvm.cli_process():
+            raise
+        STARTUP_ERROR = e
+        set_variant("scalar_rgb")  # the modules below need some variant to import
 else:
     register_plugins()
 

@@ -133,12 +133,23 @@ def probe_version(path: str, timeout: float = 30.0) -> tuple[int | None, str | N
     return None, f"probe failed (exit code {out.returncode})"
 
 
+#: First bytes of a shared library: ELF (Linux), Mach-O 64/32-bit and universal (macOS).
+_LIBRARY_MAGIC = (b"\x7fELF", b"\xcf\xfa\xed\xfe", b"\xce\xfa\xed\xfe", b"\xca\xfe\xba\xbe")
+
+
 def inspect(path: str, source: str) -> Candidate:
-    """Describe one library file: exists? which version? usable?"""
+    """Describe one library file: exists? a shared library? which version? usable?"""
     if not os.path.exists(path):
         return Candidate(path, source, None, "file does not exist")
     if os.path.isdir(path):
         return Candidate(path, source, None, "is a directory, not a shared library")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4)
+    except OSError as e:
+        return Candidate(path, source, None, f"cannot be read ({e.strerror})")
+    if head not in _LIBRARY_MAGIC:  # a name such as libLLVM-19.so proves nothing by itself
+        return Candidate(path, source, None, "is not a shared library")
     version = version_from_name(path)
     problem = None
     if version is None:
@@ -206,9 +217,22 @@ def _loaded_llvm() -> list[str]:
         return []
 
 
+def requested_variant() -> str:
+    """The variant asked for: ``mi-npr --variant NAME`` in the command, else ``$MI_NPR_VARIANT``,
+    else ``llvm_ad_rgb``. (The command's option is read here because ``import mi_npr`` must
+    know it before Dr.Jit is imported, before the command line is parsed.)"""
+    if cli_process():
+        args = sys.argv[1:]
+        for i, a in enumerate(args):
+            if a == "--variant" and i + 1 < len(args):
+                return args[i + 1]
+            if a.startswith("--variant="):
+                return a.split("=", 1)[1]
+    return os.environ.get("MI_NPR_VARIANT") or "llvm_ad_rgb"
+
+
 def _wants_llvm_variant() -> bool:
-    requested = os.environ.get("MI_NPR_VARIANT", "llvm_ad_rgb")
-    return requested.startswith("llvm")
+    return requested_variant().startswith("llvm")
 
 
 def select() -> Selection:
@@ -307,6 +331,7 @@ __all__ = [
     "configure",
     "inspect",
     "probe_version",
+    "requested_variant",
     "select",
     "version_from_name",
 ]

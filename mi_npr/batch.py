@@ -68,8 +68,8 @@ def run_jobs(
         res = JobResult(item)
         try:
             res.outputs = job(item)
-        except NprError as e:
-            res.error = str(e)
+        except NprError as e:  # one line; name the input when the message does not
+            res.error = str(e) if item in str(e) else f"{item}: {e}"
         except Exception as e:
             if traceback:
                 raise

@@ -184,17 +184,19 @@ def _fail(message: str, code: int = 1) -> int:
 
 
 def _scene_batch(args: argparse.Namespace) -> tuple[Path, dict]:
-    """The checked output directory and the render options of a batch-of-scenes command."""
+    """The checked output directory and the render options of a batch-of-scenes command
+    (``spp``, ``defines``: passed as a mapping, so ``-D seed=3`` fills the XML's ``$seed``)."""
     import mi_npr
 
     from .batch import check_unique_stems
 
     check_unique_stems(args.scenes)
     outdir = mi_npr.io.check_writable_dir(args.output, create=True)
-    options = dict(args.defines)  # -D spp=N and --spp N mean the same; --spp wins
+    defines = dict(args.defines)
+    spp = defines.pop("spp", None)  # -D spp=N and --spp N mean the same; --spp wins
     if args.spp is not None:
-        options["spp"] = args.spp
-    return outdir, options
+        spp = args.spp
+    return outdir, {"spp": spp, "defines": defines}
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
@@ -351,7 +353,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         if mi_npr.LLVM is None:  # no usable LLVM: import_module deferred the error to us
             mi_npr._llvm.configure()
-
+        if mi_npr._api.STARTUP_ERROR is not None:  # the variant asked for cannot be activated
+            raise mi_npr._api.STARTUP_ERROR
         if args.variant:
             mi_npr.set_variant(args.variant)
         return COMMANDS[args.command](args)

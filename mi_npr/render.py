@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import threading
+from collections.abc import Mapping
 from typing import Any
 
 import drjit as dr
@@ -30,6 +31,7 @@ from .scene import (
     camera_of,
     declared_defaults,
     load_scene,
+    merge_defines,
     object_table,
     sensor_of,
 )
@@ -211,7 +213,7 @@ def prepare(
             raise ParameterError(f"spp = {spp!r}: must be a positive integer") from None
     if spp is not None and source is not None and "spp" in declared_defaults(source):
         defines["spp"] = spp
-    return load_scene(scene, **defines), spp, source
+    return load_scene(scene, defines), spp, source
 
 
 def render(
@@ -220,11 +222,13 @@ def render(
     sensor: int = 0,
     spp: int | None = None,
     seed: int = 0,
-    **defines: Any,
+    defines: Mapping[str, Any] | None = None,
+    **more: Any,
 ) -> GBuffer:
     """Render a scene (a loaded ``mi.Scene`` or an XML path) into a :class:`GBuffer`.
 
-    ``defines`` fill the XML's ``<default>``s, like ``mi.load_file`` (``width=64, height=48``).
+    Keyword arguments fill the XML's ``<default>``s, like ``mi.load_file`` (``width=64,
+    height=48``); ``defines={"seed": 3}`` reaches the names this function takes itself.
     ``spp`` always sets the beauty's samples per pixel; when the XML declares a ``spp`` default,
     it fills it too (so ``render("scene.xml", spp=4)`` means 4 spp either way).
     When the scene's integrator is one of mi-npr's (``npr_gbuffer``, ``npr_lines``, ...), its
@@ -234,7 +238,7 @@ def render(
     >>> gb = mi_npr.render("scenes_xml/scene1.xml", width=64, height=48, spp=4)  # doctest: +SKIP
     >>> gb["Z"].shape, gb.objects                                                # doctest: +SKIP
     """
-    loaded, spp, source = prepare(scene, spp, defines)
+    loaded, spp, source = prepare(scene, spp, merge_defines(defines, more))
     integrator = loaded.integrator()
     if hasattr(integrator, "npr_gbuffer"):
         return integrator.npr_gbuffer(loaded, sensor=sensor, spp=spp, seed=seed, source=source)

@@ -29,19 +29,39 @@ from .gbuffer import Camera
 
 
 def _define_value(name: str, value: Any) -> str:
-    if isinstance(value, bool):
+    if isinstance(value, (bool, np.bool_)):
         return "true" if value else "false"
+    if isinstance(value, (np.integer, np.floating)):
+        value = value.item()
     if isinstance(value, (int, float, str)):
         return str(value)
     raise ParameterError(f"define {name!r}: value {value!r} is not a number, string or bool")
 
 
-def load_scene(scene: str | os.PathLike[str] | mi.Scene, **defines: Any) -> mi.Scene:
-    """A ``mi.Scene`` from an XML path (``defines`` fill its ``<default>``s), or ``scene`` itself.
+def merge_defines(defines: Mapping[str, Any] | None, more: Mapping[str, Any]) -> dict[str, Any]:
+    """The XML ``<default>`` values given as a mapping and as keyword arguments, in one dict.
+
+    The mapping reaches every name, also one that is a keyword of the function it is passed to
+    (``render(path, defines={"seed": 3}, seed=0)``: the XML's ``$seed`` and the sampler seed).
+    """
+    if defines is not None and not isinstance(defines, Mapping):
+        raise ParameterError(f"defines: expected a mapping of names to values, got {defines!r}")
+    return {**(defines or {}), **more}
+
+
+def load_scene(
+    scene: str | os.PathLike[str] | mi.Scene,
+    /,
+    defines: Mapping[str, Any] | None = None,
+    **more: Any,
+) -> mi.Scene:
+    """A ``mi.Scene`` from an XML path (``defines`` and keyword arguments fill its
+    ``<default>``s), or ``scene`` itself.
 
     Errors (missing file, malformed XML, unknown parameter, unused define) raise
     :class:`~mi_npr.errors.SceneError` with a one-line message that names the file.
     """
+    defines = merge_defines(defines, more)
     if isinstance(scene, mi.Scene):
         if defines:
             raise ParameterError(
@@ -95,13 +115,17 @@ def declared_defaults(path: str | os.PathLike[str]) -> set[str]:
 
 
 def sensor_of(scene: mi.Scene, sensor: int | mi.Sensor = 0) -> mi.Sensor:
-    """The scene's ``sensor``-th sensor (or ``sensor`` itself), with a clear error if absent."""
-    if isinstance(sensor, mi.Sensor):
-        return sensor
-    sensors = scene.sensors()
-    if not isinstance(sensor, int) or not 0 <= sensor < len(sensors):
-        raise ParameterError(f"sensor {sensor!r}: the scene has {len(sensors)} sensor(s)")
-    return sensors[sensor]
+    """The scene's ``sensor``-th sensor (or ``sensor`` itself), with a clear error if absent or
+    if its film has no pixels."""
+    if not isinstance(sensor, mi.Sensor):
+        sensors = scene.sensors()
+        if not isinstance(sensor, int) or not 0 <= sensor < len(sensors):
+            raise ParameterError(f"sensor {sensor!r}: the scene has {len(sensors)} sensor(s)")
+        sensor = sensors[sensor]
+    w, h = (int(v) for v in sensor.film().crop_size())
+    if w < 1 or h < 1:
+        raise SceneError(f"film size {w}x{h}: width and height must be at least 1 pixel")
+    return sensor
 
 
 def _scalar(x: Any) -> float:

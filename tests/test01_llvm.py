@@ -81,15 +81,24 @@ def test05_old_system_llvm_is_refused_before_it_can_abort():
     assert "too old" in res.stderr and "needs LLVM >= 17" in res.stderr
 
 
+ELF = b"\x7fELF"  # the first bytes of a Linux shared library
+
+
 def test06_garbage_library_is_probed_in_a_child(tmp_path):
     fake = tmp_path / "libLLVM.so"
-    fake.write_bytes(b"not an ELF file")
+    fake.write_bytes(ELF + b" but not a real library")
     c = _llvm.inspect(str(fake), "test")
     assert not c.usable and "cannot be loaded" in c.problem
     fake_old = tmp_path / "libLLVM-12.so"
-    fake_old.write_bytes(b"x")
+    fake_old.write_bytes(ELF)
     c = _llvm.inspect(str(fake_old), "test")
     assert c.version == 12 and "too old" in c.problem
+    # A name that promises a good version proves nothing: the file is checked first.
+    for junk in (b"not an ELF file", b""):
+        fake_new = tmp_path / "libLLVM-19.so"
+        fake_new.write_bytes(junk)
+        c = _llvm.inspect(str(fake_new), "test")
+        assert not c.usable and c.problem == "is not a shared library"
 
 
 def test07_selection_order(monkeypatch, tmp_path):
@@ -98,7 +107,7 @@ def test07_selection_order(monkeypatch, tmp_path):
     system_old = tmp_path / "libLLVM-15.so"
     for p in (wheel, system_new, system_old):
         p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_bytes(b"x")
+        p.write_bytes(ELF)
     monkeypatch.delenv("DRJIT_LIBLLVM_PATH", raising=False)
     monkeypatch.setattr(_llvm, "wheel_libraries", lambda: [str(wheel)])
     monkeypatch.setattr(_llvm, "system_libraries", lambda: [str(system_new), str(system_old)])
@@ -128,3 +137,24 @@ def test08_scalar_variant_without_llvm_switches_the_backend_off(monkeypatch):
     monkeypatch.delenv("DRJIT_LIBLLVM_PATH")
     with pytest.raises(_llvm.LLVMNotFoundError, match="no usable libLLVM"):
         _llvm.configure()
+
+
+def test09_cli_reports_startup_problems_in_one_line(tmp_path):
+    junk = tmp_path / "libLLVM-19.so"  # the name says 19; the content is no library
+    junk.write_bytes(b"junk")
+    for env, words in (
+        ({"MI_NPR_VARIANT": "bogus"}, "variant 'bogus' is not available"),
+        ({"DRJIT_LIBLLVM_PATH": str(junk)}, "is not a shared library"),
+    ):
+        res = run_cli("info", "x.exr", env=env)
+        assert res.returncode == 1, res
+        assert res.stderr.count("\n") == 1 and "Traceback" not in res.stderr, res.stderr
+        assert words in res.stderr
+
+
+def test10_cli_variant_option_is_known_before_import():
+    # The command's --variant decides the variant at import (and whether LLVM is needed),
+    # whatever MI_NPR_VARIANT says.
+    assert _llvm.cli_process() is False
+    res = run_cli("--variant", "scalar_rgb", "info", "x.exr", env={"MI_NPR_VARIANT": "bogus"})
+    assert res.returncode == 1 and "x.exr: no such file" in res.stderr, res.stderr

@@ -131,3 +131,29 @@ def test07_foreign_exr_with_half_channels(tmp_path):
     assert gb.names == ("R", "G", "B") and gb["R"].dtype == np.float32
     assert gb.camera is None and gb.objects == {}
     np.testing.assert_array_equal(gb["G"], rgb.astype(np.float32))
+
+
+def test08_metadata_round_trip(tmp_path):
+    gb = _gbuffer().with_metadata(note="hand-made", **{"mi_npr/version": "0.0.1"})
+    back = read_exr(write_exr(tmp_path / "m.exr", gb))
+    assert back.metadata["note"] == "hand-made"  # a key without the prefix comes back as given
+    assert back.metadata["mi_npr/version"] != "0.0.1"  # the file says which mi-npr wrote it
+    assert back == gb.with_metadata(**{"mi_npr/version": back.metadata["mi_npr/version"]})
+
+
+def test09_foreign_exr_that_no_gbuffer_may_hold_names_the_file(tmp_path):
+    path = tmp_path / "float_ids.exr"
+    ids = np.full((2, 3), 1.5, np.float32)  # object ids must be whole numbers
+    OpenEXR.File({"type": OpenEXR.scanlineimage}, {"object_id": ids}).write(str(path))
+    with pytest.raises(InputError, match=r"float_ids\.exr: layer 'object_id'"):
+        read_exr(path)
+
+
+def test10_writer_runtime_error_is_an_output_error(tmp_path, monkeypatch):
+    def full(*a, **k):
+        raise RuntimeError("Failed to write pixel data: No space left on device")
+
+    monkeypatch.setattr(exr_module.OpenEXR, "File", full)
+    with pytest.raises(OutputError, match=r"d\.exr: cannot write \(.*No space left on device\)"):
+        write_exr(tmp_path / "d.exr", _gbuffer())
+    assert os.listdir(tmp_path) == []

@@ -13,7 +13,7 @@ from PIL import Image
 from mi_npr import cli
 from mi_npr.io import read_exr
 
-from .helpers import run_cli, scene_xml
+from .helpers import SCENES, run_cli, scene_xml
 
 BALL = (
     '<shape type="sphere" id="ball"><point name="center" x="0" y="0" z="4"/></shape>'
@@ -167,3 +167,52 @@ def test09_info_on_a_non_exr(tmp_path, capsys):
     bad.write_text("hello")
     assert cli.main(["info", str(bad)]) == 1
     assert "not a readable OpenEXR file" in capsys.readouterr().err
+
+
+def test10_defines_reach_names_the_command_uses_itself(tmp_path):
+    # -D seed=... fills the XML's $seed (a sampler seed here), not render()'s own seed argument.
+    sampler = (
+        '<sampler type="independent"><integer name="sample_count" value="1"/>'
+        '<integer name="seed" value="$seed"/></sampler>'
+    )
+    text = scene_xml(BALL, integrator=NESTED).replace(
+        '<sampler type="independent"><integer name="sample_count" value="1"/></sampler>', sampler
+    )
+    xml = tmp_path / "seeded.xml"
+    xml.write_text(
+        text.replace(
+            '<scene version="3.0.0">', '<scene version="3.0.0">\n<default name="seed" value="0"/>'
+        )
+    )
+    out = tmp_path / "o"
+    images = []
+    for seed in ("1", "1", "7"):
+        assert cli.main(["render", str(xml), "-o", str(out), "-D", f"seed={seed}"]) == 0
+        images.append(read_exr(out / "seeded.exr").beauty)
+    np.testing.assert_array_equal(images[0], images[1])
+    assert not np.array_equal(images[0], images[2])  # the define changed the sampler's seed
+
+
+def test11_batch_errors_name_the_scene(ball, tmp_path, capsys):
+    nosensor = tmp_path / "nosensor.xml"
+    nosensor.write_text(f'<scene version="3.0.0">{BALL}</scene>')
+    out = tmp_path / "o"
+    assert cli.main(["render", str(nosensor), str(ball), "-o", str(out), "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert f"{nosensor}: sensor 0: the scene has 0 sensor(s)" in err
+    assert _files(out) == ["ball.exr", "ball.png"]
+    scene2 = str(SCENES / "scene2.xml")
+    for cmd in ("render", "contours", "raytree"):
+        assert cli.main([cmd, scene2, "-o", str(out), "-D", "width=0", "--no-progress"]) == 1
+        err = capsys.readouterr().err
+        assert "film size 0x480: width and height must be at least 1 pixel" in err, err
+        assert scene2 in err and err.count("\n") == 1
+
+
+def test12_numpy_values_and_a_defines_mapping_fill_defaults():
+    import mi_npr
+
+    gb = mi_npr.render(SCENES / "scene2.xml", defines={"width": np.int64(8)}, height=np.int32(6))
+    assert gb.shape == (6, 8)
+    with pytest.raises(mi_npr.ParameterError, match="defines: expected a mapping"):
+        mi_npr.render(SCENES / "scene2.xml", defines=["width=8"])

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import mitsuba as mi
@@ -85,18 +85,21 @@ def render_contours(
     method: str | None = None,
     id_mode: str | None = None,
     color: Sequence[float] | None = None,
-    **defines: Any,
+    defines: Mapping[str, Any] | None = None,
+    **more: Any,
 ) -> tuple[GBuffer, list[Contour]]:
     """Render ``scene`` (:func:`mi_npr.render`) and :func:`overlay` its contours.
 
     ``method``, ``id_mode`` and ``color`` left at ``None`` take the values of the scene's
     ``npr_contours`` integrator when it has one, else the defaults (``border``, ``shape``, red).
     ``spp`` sets the beauty's samples per pixel (and the XML's ``spp`` default when it declares
-    one, like :func:`mi_npr.render`); ``defines`` fill the XML's ``<default>``s.
+    one, like :func:`mi_npr.render`); ``defines`` and the other keyword arguments fill the XML's
+    ``<default>``s.
     """
     from ..render import prepare, render
+    from ..scene import merge_defines
 
-    loaded, spp, source = prepare(scene, spp, defines)
+    loaded, spp, source = prepare(scene, spp, merge_defines(defines, more))
     integrator = loaded.integrator()
     xml = getattr(integrator, "params", {}) if _plugin(integrator) == "npr_contours" else {}
     gb = render(loaded, sensor=sensor, spp=spp, seed=seed)

@@ -58,7 +58,7 @@ import numpy as np
 
 from ..errors import ParameterError, SceneError, one_line
 from ..render import _LOCK, pixel_rays
-from ..scene import camera_of, load_scene, sensor_of
+from ..scene import camera_of, load_scene, merge_defines, sensor_of
 from .contour import Contour
 from .idmode import IdMap, check_id_mode, id_map
 from .trace import OUTSIDE, Grid, check_method, contours_from_grid, distinct
@@ -280,7 +280,8 @@ def trace_scene(
     id_mode: str = "shape",
     macro: int = MACRO,
     guard: bool = True,
-    **defines: Any,
+    defines: Mapping[str, Any] | None = None,
+    **more: Any,
 ) -> tuple[list[Contour], TraceStats]:
     """The contours of ``scene`` seen by ``sensor``, by ray casting (module docstring).
 
@@ -301,7 +302,7 @@ def trace_scene(
     check_macro(macro)
     source = os.fspath(scene) if isinstance(scene, (str, os.PathLike)) else None
     t0 = time.perf_counter()
-    loaded = load_scene(scene, **defines)
+    loaded = load_scene(scene, merge_defines(defines, more))
     sensor = sensor_of(loaded, sensor)
     with _LOCK:
         try:

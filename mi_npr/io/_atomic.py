@@ -9,7 +9,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-from ..errors import OutputError
+from ..errors import OutputError, one_line
 
 
 def _umask() -> int:
@@ -50,6 +50,8 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[str]:
         os.replace(tmp, target)
     except OSError as e:
         raise OutputError(f"{target}: cannot write ({e.strerror or e})") from None
+    except RuntimeError as e:  # OpenEXR reports I/O failures (a full disk) as RuntimeError
+        raise OutputError(f"{target}: cannot write ({one_line(e)})") from None
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)

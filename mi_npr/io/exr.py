@@ -10,13 +10,16 @@ Blender read as layers. Header attributes:
 ``mi_npr/objects``     JSON object table ``{"1": "floor", "2": "sphere", ...}`` (0 = background)
 ``mi_npr/camera``      JSON camera: ``to_world`` (Mitsuba convention), resolution, fov, clip planes
 ``mi_npr/layers``      JSON list of layer names in the GBuffer's order (EXR sorts channels)
-``mi_npr/...``         every other metadata string of the GBuffer (scene, spp, variant, ...)
+``mi_npr/...``         every other metadata string of the GBuffer (scene, spp, variant, ...);
+                       a key of the user's without the ``mi_npr/`` prefix goes in as
+                       ``mi_npr/meta/<key>`` and comes back as ``<key>``
 ``worldToCamera``      the standard attribute (Imath ``M44f``, row-vector convention, i.e. the
                        transpose of Mitsuba's column-vector world->camera matrix; Mitsuba's camera
                        looks along +z with +y up)
 =====================  ==========================================================================
 
-Writes are atomic (temporary file + rename).
+Writes are atomic (temporary file + rename). ``read_exr(write_exr(gb))`` equals ``gb``, layers
+bit for bit, except that the file always records the writer's ``mi_npr/version``.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ import OpenEXR
 
 from .. import layers as L
 from .._version import __version__
-from ..errors import InputError
+from ..errors import InputError, NprError
 from ..gbuffer import Camera, GBuffer
 from ._atomic import atomic_output
 
@@ -40,6 +43,7 @@ _OBJECTS = _PREFIX + "objects"
 _CAMERA = _PREFIX + "camera"
 _LAYERS = _PREFIX + "layers"
 _VERSION = _PREFIX + "version"
+_USER = _PREFIX + "meta/"  # metadata keys given without the prefix
 
 
 def _header(gb: GBuffer) -> dict[str, Any]:
@@ -48,7 +52,7 @@ def _header(gb: GBuffer) -> dict[str, Any]:
         "type": OpenEXR.scanlineimage,
     }
     for k, v in gb.metadata.items():
-        header[k if k.startswith(_PREFIX) else _PREFIX + k] = str(v)
+        header[k if k.startswith(_PREFIX) else _USER + k] = str(v)
     header[_VERSION] = __version__
     header[_OBJECTS] = json.dumps({str(k): v for k, v in gb.objects.items()})
     header[_LAYERS] = json.dumps(list(gb.names))
@@ -114,8 +118,11 @@ def read_exr(path: str | os.PathLike[str]) -> GBuffer:
         raise InputError(f"{p}: malformed mi-npr header ({e})") from None
     skip = {_OBJECTS, _CAMERA, _LAYERS}
     meta = {k: v for k, v in header.items() if k.startswith(_PREFIX) and k not in skip}
-    meta = {k: v for k, v in meta.items() if isinstance(v, str)}
-    return GBuffer(layers, objects, camera, meta)
+    meta = {k.removeprefix(_USER): v for k, v in meta.items() if isinstance(v, str)}
+    try:
+        return GBuffer(layers, objects, camera, meta)
+    except NprError as e:  # layers or table that no GBuffer may hold (a float id, id 0, ...)
+        raise InputError(f"{p}: {e}") from None
 
 
 def describe(gb: GBuffer) -> dict[str, Any]:

@@ -9,6 +9,7 @@ One wavefront traces both ray sets: the W x H pixel-centre rays (the G-buffer's 
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from typing import Any
 
 import drjit as dr
@@ -20,7 +21,7 @@ from ..compose import with_overlays
 from ..errors import ParameterError, SceneError, one_line
 from ..gbuffer import GBuffer
 from ..render import _LOCK, pixel_rays, prepare, render_gbuffer
-from ..scene import object_table, sensor_of
+from ..scene import merge_defines, object_table, sensor_of
 from .edges import as_image, classify_edges
 from .lights import light_table
 from .tracer import Trees, check_max_depth, trace_trees
@@ -118,15 +119,16 @@ def render(
     sensor: int = 0,
     spp: int | str | None = None,
     seed: int = 0,
-    **defines: Any,
+    defines: Mapping[str, Any] | None = None,
+    **more: Any,
 ) -> GBuffer:
     """Render ``scene`` with the ray-tree layers and overlay, whatever its integrator.
 
     The beauty comes from the scene's integrator (the nested one of an mi-npr integrator).
-    ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3. ``defines`` fill
-    the XML's ``<default>``s, as in :func:`mi_npr.render`.
+    ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3. ``defines`` and
+    the other keyword arguments fill the XML's ``<default>``s, as in :func:`mi_npr.render`.
     """
-    loaded, spp, source = prepare(scene, spp, defines)
+    loaded, spp, source = prepare(scene, spp, merge_defines(defines, more))
     integ = loaded.integrator()
     is_npr = hasattr(integ, "npr_gbuffer")
     max_depth = check_max_depth(scene_max_depth(loaded) if max_depth is None else max_depth)

@@ -11,7 +11,7 @@ Every file goes through :mod:`mi_npr.io` (temporary name, then rename).
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +20,7 @@ import numpy as np
 from .. import io
 from ..errors import SceneError
 from ..render import render
-from ..scene import camera_of, load_scene, sensor_of
+from ..scene import camera_of, load_scene, merge_defines, sensor_of
 from .camera import sensor_xml, sphere_image
 from .measures import check_measure
 from .search import BestView, check_shapes, sample_sphere, search, viewing
@@ -40,7 +40,8 @@ def write_best_view(
     samples: int = SPHERE_SAMPLES,
     seed: int = 0,
     ignore: Sequence[str] = (),
-    **defines: Any,
+    defines: Mapping[str, Any] | None = None,
+    **more: Any,
 ) -> tuple[BestView, dict[str, Path]]:
     """Search the best view of the XML scene and write the three files (module docstring).
 
@@ -49,7 +50,7 @@ def write_best_view(
     the :class:`BestView` and the written paths by kind (``sensor``, ``render``, ``sphere``).
     """
     check_measure(measure)
-    scene = load_scene(scene_path, **defines)
+    scene = load_scene(scene_path, merge_defines(defines, more))
     try:
         check_shapes(scene)
     except SceneError as e:
