@@ -5,8 +5,10 @@ pass of :mod:`mi_npr.render`, the nested beauty integrator's ``render`` (film fi
 then its post-passes (:meth:`NprIntegrator.post`). So plain ``mi.render(scene)`` returns a
 ``TensorXf`` of shape (H, W, 3 + len(aov_names())): the beauty (with the integrator's lines or
 overlays composited) followed by the channels named by :meth:`aov_names`; integer layers are
-stored as float32 there (exact below 2**24). ``mi_npr.render(scene)`` returns the same layers as
-a :class:`~mi_npr.gbuffer.GBuffer`, with integer layers kept as uint32.
+stored as float32 there (exact below 2**24). The sensor's film holds the same channels
+afterwards (``film.bitmap()``, ``film.write()``); an ``rgba`` film adds ``A`` after ``B``.
+``mi_npr.render(scene)`` returns the same layers as a :class:`~mi_npr.gbuffer.GBuffer`, with
+integer layers kept as uint32.
 
 Subclasses declare ``PLUGIN`` (the XML name), ``PARAMS`` (see :mod:`mi_npr.params`) and
 override :meth:`post` and :meth:`aov_names`. Plugins hold no algorithm: ``post`` calls library
@@ -36,19 +38,69 @@ from .scene import object_table, sensor_of
 def pack(gb: GBuffer, names: Sequence[str]) -> mi.TensorXf:
     """The layers ``names`` of ``gb`` interleaved into one float32 (H, W, C) tensor."""
     h, w = gb.shape
-    c, n = len(names), h * w
     if not dr.is_jit_v(mi.Float):
         return mi.TensorXf(np.stack([gb[k].astype(np.float32) for k in names], axis=-1))
-    # Copy the layers into one planar block (contiguous scatters), then one gather interleaves
-    # it; measured faster than strided scatters or numpy's stack at 1920x1080 (see benchmarks).
-    planar = dr.empty(mi.Float, c * n)
+    return _interleave(_planar(gb, names), len(names), h, w)
+
+
+def _planar(gb: GBuffer, names: Sequence[str]) -> mi.Float:
+    """The layers one after the other in one Dr.Jit array (contiguous copies); interleaving it
+    with one gather was measured faster than strided scatters or numpy's stack at 1920x1080."""
+    n = gb.shape[0] * gb.shape[1]
+    planar = dr.empty(mi.Float, len(names) * n)
     idx = dr.arange(mi.UInt32, n)
     for i, k in enumerate(names):
-        a = gb[k]
-        v = mi.Float(a.reshape(-1)) if a.dtype == np.float32 else mi.Float(mi.UInt32(a.reshape(-1)))
+        a = gb[k].reshape(-1)
+        v = mi.Float(a) if a.dtype == np.float32 else mi.Float(mi.UInt32(a))
         dr.scatter(planar, v, idx + i * n)
-    k = dr.arange(mi.UInt32, c * n)
-    return mi.TensorXf(dr.gather(mi.Float, planar, (k % c) * n + k // c), shape=(h, w, c))
+    return planar
+
+
+def _interleave(planar: mi.Float, c: int, h: int, w: int, ones_at: int = -1) -> mi.TensorXf:
+    """(H, W, C) from ``c`` planar channels; with ``ones_at >= 0`` a channel of ones is inserted
+    there (a film's weight channel), so the result has ``c + 1`` channels."""
+    n = h * w
+    cc = c + (ones_at >= 0)
+    k = dr.arange(mi.UInt32, cc * n)
+    ch, px = k % cc, k // cc
+    if ones_at < 0:
+        return mi.TensorXf(dr.gather(mi.Float, planar, ch * n + px), shape=(h, w, cc))
+    src = dr.select(ch < ones_at, ch, ch - 1)
+    ones = ch == ones_at
+    v = dr.select(ones, 1.0, dr.gather(mi.Float, planar, src * n + px, ~ones))
+    return mi.TensorXf(v, shape=(h, w, cc))
+
+
+def develop_into_film(film: mi.Film, gb: GBuffer, aovs: Sequence[str]) -> mi.TensorXf:
+    """``R G B`` and the layers ``aovs`` of ``gb`` as ``mi.render`` returns them, also put into
+    ``film`` (unit weights, no filter) as Mitsuba's own integrators leave theirs, so
+    ``film.bitmap()`` and ``film.write()`` hold the same channels (an ``rgba`` film adds ``A``
+    after ``B``: 1 where the pixel-centre ray hits).
+
+    Films other than an RGB(A) ``hdrfilm`` (mono and spectral variants), and scalar variants,
+    are left as the nested integrator left them. The film's copy is one more gather from the same planar buffer, which
+    Dr.Jit runs when the film is read.
+    """
+    names = [*L.RGB, *aovs]
+    channels = film.prepare(list(aovs))
+    base = channels - len(aovs)  # R G B W, or R G B A W
+    if not (dr.is_jit_v(mi.Float) and mi.is_rgb and base in (4, 5)):
+        return pack(gb, names)
+    if film.class_name() != "HDRFilm":
+        return pack(gb, names)
+    h, w = gb.shape
+    film_names = names[:3] + ([L.OBJECT_ID] if base == 5 else []) + names[3:]
+    planar = _planar(gb, film_names)
+    if base == 5:  # alpha: 1 where the pixel-centre ray hits (object id > 0)
+        n = h * w
+        idx = dr.arange(mi.UInt32, n)
+        hit = dr.gather(mi.Float, planar, idx + 3 * n) > 0
+        dr.scatter(planar, dr.select(hit, 1.0, 0.0), idx + 3 * n)
+    block = _interleave(planar, len(film_names), h, w, ones_at=base - 1)
+    film.put_block(mi.ImageBlock(block, offset=film.crop_offset()))
+    if base == 4:
+        return _interleave(planar, len(names), h, w)
+    return _interleave(planar, len(film_names), h, w)  # R G B A aovs, like Mitsuba's develop()
 
 
 class NprIntegrator(mi.SamplingIntegrator):
@@ -101,8 +153,9 @@ class NprIntegrator(mi.SamplingIntegrator):
     ) -> mi.TensorXf:
         if not develop:
             raise ParameterError(f"{self.PLUGIN}: develop=False is not supported")
+        sensor = sensor_of(scene, sensor)
         gb = self.npr_gbuffer(scene, sensor, spp or None, seed)
-        return pack(gb, [*L.RGB, *self.aov_names()])
+        return develop_into_film(sensor.film(), gb, self.aov_names())
 
     def sample(
         self,

@@ -33,8 +33,8 @@ real objects from their reflections and refractions.
 
 Channels (``aov_names()``, after ``R G B``): ``contour`` (object id on contour pixels, 0
 elsewhere, in the ids of ``id_mode``; their names are in the GBuffer's metadata
-``mi_npr/contour_objects``), the untouched beauty ``beauty.R beauty.G beauty.B``, then the
-G-buffer's ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id``. ``R G B`` hold the beauty with the
+``mi_npr/contour_objects``), the G-buffer's ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id``,
+then the untouched beauty ``beauty.R beauty.G beauty.B``. ``R G B`` hold the beauty with the
 contours drawn.
 
 XML::
@@ -74,7 +74,7 @@ class NprContoursIntegrator(NprIntegrator):
     )
 
     def aov_names(self) -> list[str]:
-        return [L.CONTOUR, *L.RAW_RGB, *L.GBUFFER_AOVS]
+        return [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         out, _ = overlay(

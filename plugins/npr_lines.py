@@ -76,10 +76,11 @@ The defaults draw clean 1-pixel contours on the paper's scenes at 640x480 (see
 :mod:`mi_npr.kernels.chain` for why).
 
 ``mi.render(scene)`` returns (H, W, 16): ``R G B`` (beauty with the lines), ``lines``, the
-untouched beauty ``beauty.R beauty.G beauty.B``, then the G-buffer channels ``Z P.X P.Y P.Z N.X
-N.Y N.Z object_id prim_id`` (and ``leaf_id`` last when ``leaf_edges`` is on): the layout of every
-mi-npr integrator that draws on the beauty. ``mi-npr render`` writes every layer to the EXR and
-the composited beauty to the PNG.
+G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id`` (then ``leaf_id`` when
+``leaf_edges`` is on), and last the untouched beauty ``beauty.R beauty.G beauty.B``: the layout
+of every mi-npr integrator that draws on the beauty (its own layers, the G-buffer, the raw
+beauty). The sensor's film holds the same channels afterwards. ``mi-npr render`` writes every
+layer to the EXR and the composited beauty to the PNG.
 
 XML::
 
@@ -136,7 +137,7 @@ class NprLinesIntegrator(NprIntegrator):
 
     def aov_names(self) -> list[str]:
         extra = [L.LEAF_ID] if self.params["leaf_edges"] else []
-        return [L.LINES, *L.RAW_RGB, *L.GBUFFER_AOVS, *extra]
+        return [L.LINES, *L.GBUFFER_AOVS, *extra, *L.RAW_RGB]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         params = {k: self.params[k] for k in _CHAIN}

@@ -41,8 +41,8 @@ channel                type     meaning
 ``edges.reflection``   float32  1 where they first differ in reflection children
 ``edges.refraction``   float32  1 where they first differ in refraction children
 ``edges.shadow``       float32  1 where the objects agree but the visible lights differ
-``beauty.R/G/B``       float32  the beauty before the overlay
 (G-buffer)             ...      ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id``
+``beauty.R/G/B``       float32  the beauty before the overlay
 =====================  =======  ==========================================================
 
 ``R G B`` hold the beauty with the edge classes drawn over it. ``mi_npr.raytree.signature(scene,
@@ -79,7 +79,7 @@ class NprRayTreeIntegrator(NprIntegrator):
     PARAMS = (Param("max_depth", int, 3, "levels of the ray trees", _depth),)
 
     def aov_names(self) -> list[str]:
-        return [*LAYERS, *L.RAW_RGB, *L.GBUFFER_AOVS]
+        return [*LAYERS, *L.GBUFFER_AOVS, *L.RAW_RGB]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         return add_raytree(scene, sensor, gb, self.params["max_depth"])

@@ -34,9 +34,9 @@ def test01_all_background_closed_form(write_scene):
 def test02_mi_render_returns_composited_beauty_lines_then_gbuffer(write_scene):
     scene = mi_npr.load_scene(write_scene(BALL, integrator=lines_integrator(), spp=2))
     integ = scene.integrator()
-    assert integ.aov_names() == [L.LINES, *L.RAW_RGB, *L.GBUFFER_AOVS]
+    assert integ.aov_names() == [L.LINES, *L.GBUFFER_AOVS, *L.RAW_RGB]
     img = mi.render(scene, seed=2)
-    names = [*L.RGB, L.LINES, *L.RAW_RGB, *L.GBUFFER_AOVS]
+    names = [*L.RGB, L.LINES, *L.GBUFFER_AOVS, *L.RAW_RGB]
     assert tuple(img.shape) == (24, 32, len(names))
     gb = mi_npr.render(scene, seed=2)
     a = np.asarray(img)
@@ -145,3 +145,33 @@ def test08_scalar_variant(write_scene):
     mi_npr.set_variant("scalar_rgb")
     scalar = mi_npr.render(path)
     np.testing.assert_array_equal(scalar[L.LINES], llvm[L.LINES])
+
+
+@pytest.mark.parametrize("pixel_format", ["rgb", "rgba"])
+def test20_film_holds_what_mi_render_returns(write_scene, tmp_path, pixel_format):
+    # Mitsuba's own tools read the film (film.bitmap(), film.write()): it must hold the
+    # composited beauty and every layer, unfiltered, like the returned tensor.
+    path = write_scene(BALL, integrator=lines_integrator(), spp=4, rfilter="gaussian")
+    text = path.read_text().replace(
+        '<film type="hdrfilm">',
+        f'<film type="hdrfilm"><string name="pixel_format" value="{pixel_format}"/>',
+    )
+    path.write_text(text)
+    scene = mi_npr.load_scene(path)
+    img = np.asarray(mi.render(scene))
+    film = scene.sensors()[0].film()
+    names = [*L.RGB, *(["A"] if pixel_format == "rgba" else []), *scene.integrator().aov_names()]
+    assert img.shape[-1] == len(names)
+    bitmap = film.bitmap()
+    assert [f.name for f in bitmap.struct_()] == names
+    np.testing.assert_array_equal(np.asarray(bitmap), img)
+    gb = mi_npr.render(path)
+    lines = img[..., names.index(L.LINES)]
+    np.testing.assert_array_equal(lines, gb[L.LINES])
+    assert lines.max() > 0.5  # the ball's outline is there
+    np.testing.assert_array_equal(img[..., names.index(L.OBJECT_ID)], gb.object_id)
+    if pixel_format == "rgba":
+        np.testing.assert_array_equal(img[..., 3], (gb.object_id > 0).astype(np.float32))
+    film.write(str(tmp_path / "film.exr"))  # hdrfilm writes half floats by default
+    written = mi_npr.io.read_exr(tmp_path / "film.exr")
+    np.testing.assert_allclose(written[L.LINES], gb[L.LINES], rtol=1e-3, atol=1e-4)

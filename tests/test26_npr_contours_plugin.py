@@ -25,7 +25,7 @@ def _xml(params: str = "", nested: str = '<integrator type="direct"/>') -> str:
 def test01_mi_render_channels(write_scene):
     scene = mi_npr.load_scene(write_scene(BALLS, integrator=_xml(), spp=2))
     integ = scene.integrator()
-    assert integ.aov_names() == [L.CONTOUR, *L.RAW_RGB, *L.GBUFFER_AOVS]
+    assert integ.aov_names() == [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB]
     img = np.asarray(mi_npr.mi.render(scene, seed=1))
     assert img.shape == (24, 32, 3 + len(integ.aov_names()))
     gb = mi_npr.render(scene, seed=1)

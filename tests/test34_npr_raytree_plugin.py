@@ -30,7 +30,7 @@ def test01_mi_render_returns_beauty_then_aovs(write_scene):
     scene = mi_npr.load_scene(write_scene(SCENE, integrator=raytree_integrator(), spp=2))
     integ = scene.integrator()
     names = integ.aov_names()
-    assert names == [*LAYERS, *L.RAW_RGB, *L.GBUFFER_AOVS]
+    assert names == [*LAYERS, *L.GBUFFER_AOVS, *L.RAW_RGB]
     img = np.asarray(mi_npr.mi.render(scene, seed=2).numpy())
     assert img.shape == (24, 32, 3 + len(names))
     gb = mi_npr.render(scene, seed=2)

@@ -80,7 +80,7 @@ def test02_leaf_id_layer_and_npr_lines(files):
     path = write(d, body, "two.xml", integrator=lines)
     scene = mi_npr.load_scene(path)
     gb = mi_npr.render(scene)
-    assert scene.integrator().aov_names() == [L.LINES, *L.RAW_RGB, *L.GBUFFER_AOVS, L.LEAF_ID]
+    assert scene.integrator().aov_names() == [L.LINES, *L.GBUFFER_AOVS, L.LEAF_ID, *L.RAW_RGB]
     # Quads: 2 triangles per leaf, so leaf_id = prim_id // 2 + 1; shapes are numbered by name
     # ("leaves" < "more"), and the second one's ids follow the first one's.
     ids = gb.object_id
@@ -97,7 +97,9 @@ def test02_leaf_id_layer_and_npr_lines(files):
     right = leaf[:, 1:] != leaf[:, :-1]
     assert np.all((ink[:, 1:] | ink[:, :-1])[right])
     img = np.asarray(mi.render(scene))
-    np.testing.assert_array_equal(img[..., -1], gb[L.LEAF_ID].astype(np.float32))
+    names = [*L.RGB, *scene.integrator().aov_names()]
+    leaf_channel = img[..., names.index(L.LEAF_ID)]
+    np.testing.assert_array_equal(leaf_channel, gb[L.LEAF_ID].astype(np.float32))
     # Without leaf_edges, npr_lines' layout is unchanged.
     plain = write(d, body, "plain.xml", integrator=lines.replace('"1"', '"0"'))
     assert L.LEAF_ID not in mi_npr.render(plain)
