@@ -78,8 +78,8 @@ def develop_into_film(film: mi.Film, gb: GBuffer, aovs: Sequence[str]) -> mi.Ten
     after ``B``: 1 where the pixel-centre ray hits).
 
     Films other than an RGB(A) ``hdrfilm`` (mono and spectral variants), and scalar variants,
-    are left as the nested integrator left them. The film's copy is one more gather from the same planar buffer, which
-    Dr.Jit runs when the film is read.
+    are left as the nested integrator left them. The film's copy is one more gather from the
+    same planar buffer, which Dr.Jit runs when the film is read.
     """
     names = [*L.RGB, *aovs]
     channels = film.prepare(list(aovs))

@@ -7,9 +7,12 @@ Mitsuba does not complain about unknown parameters of Python plugins, so a typo 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
+
+import numpy as np
 
 from .errors import ParameterError
 
@@ -30,6 +33,8 @@ def coerce(plugin: str, p: Param, value: Any) -> Any:
     bad = f"{plugin}: parameter {p.name!r} = {value!r}"
     if value is None:
         return None
+    if isinstance(value, np.generic) and not isinstance(value, (np.str_, np.bytes_)):
+        value = value.item()  # numpy scalars count as the Python values they hold
     if p.type is bool:
         if isinstance(value, bool):
             out: Any = value
@@ -38,7 +43,12 @@ def coerce(plugin: str, p: Param, value: Any) -> Any:
         else:
             raise ParameterError(f"{bad}: expected a boolean")
     elif p.type is int:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+            or value != int(value)
+        ):
             raise ParameterError(f"{bad}: expected an integer")
         out = int(value)
     elif p.type is float:

@@ -115,3 +115,14 @@ def test06_nan_inf_and_zero_normals_make_no_edges():
     got = np.asarray(normal_edges(n, ids, 10.0))
     assert not got.any()
     np.testing.assert_array_equal(got, ref_normal_edges(n, ids, 10.0))
+
+
+def test07_exactly_the_threshold_angle_is_no_edge():
+    # "More than angle_deg": a right angle is no crease at 90 degrees, one at 89.9.
+    N = np.zeros((1, 2, 3), np.float32)
+    N[0, 0], N[0, 1] = (0, 0, 1), (1, 0, 0)
+    ids = np.ones((1, 2), np.uint32)
+    np.testing.assert_array_equal(np.asarray(normal_edges(N, ids, 90.0)), [[0, 0]])
+    np.testing.assert_array_equal(np.asarray(normal_edges(N, ids, 89.9)), [[1, 1]])
+    N[0, 1] = (0.5, 0, math.sqrt(3) / 2)  # 30 degrees, exact in the reference
+    assert not np.asarray(normal_edges(N, ids, 30.0)).any()

@@ -129,6 +129,10 @@ def test04_accepts_a_gbuffer_and_nan_never_spreads():
         ({"near": 5.0, "far": 1.0}, "lines: near = 5.0, far = 1.0: near must be less than far"),
         ({"cc": 1.0}, "lines: unknown parameter 'cc'"),
         ({"remove_isolated": "maybe"}, "parameter 'remove_isolated' = 'maybe'"),
+        ({"dilation_size": float("inf")}, "parameter 'dilation_size' = inf: expected an integer"),
+        ({"dilation_iterations": float("nan")}, "'dilation_iterations' = nan: expected an int"),
+        ({"c": 1e39}, "parameter 'c' = 1e+39: must be a finite number >= 0 (float32)"),
+        ({"far": 1e39}, "far"),
     ],
 )
 def test05_bad_parameters_name_the_parameter(params, message):
@@ -148,3 +152,22 @@ def test06_missing_or_mismatched_layers():
         K.lines({**z_only, L.OBJECT_ID: np.zeros((3, 3), np.uint32)}, normal_edges=20.0)
     with pytest.raises(mi_npr.ParameterError, match="object_id: shape"):
         K.lines({L.Z: np.ones((3, 4)), L.OBJECT_ID: np.zeros((4, 3), np.uint32)}, id_edges=True)
+
+
+def test07_numpy_scalars_are_the_values_they_hold():
+    Z = blocks((9, 11))
+    plain = np.asarray(K.lines(Z, c=40.0, dilation_size=3, remove_isolated=True, t0=0.5))
+    numpy = K.lines(
+        Z, c=np.float32(40), dilation_size=np.int64(3), remove_isolated=np.True_, t0=np.float64(0.5)
+    )
+    np.testing.assert_array_equal(np.asarray(numpy), plain)
+
+
+def test08_huge_finite_values_never_make_nan():
+    c = float(np.finfo(np.float32).max)  # the largest accepted gain
+    Z = blocks((9, 11))
+    assert np.isfinite(np.asarray(K.lines(Z, c=c))).all()
+    D = np.asarray(K.normalize_depth(np.array([[-3e38, 0.0, 3e38]], np.float32)))
+    np.testing.assert_array_equal(D, [[0.0, 0.5, 1.0]])
+    D = np.asarray(K.normalize_depth(np.array([[-3e38, 0.0, 3e38]]), near=-3e38, far=3e38))
+    np.testing.assert_array_equal(D, [[0.0, 0.5, 1.0]])

@@ -30,12 +30,21 @@ Shape = tuple[int, int]
 # declarations (mi_npr.params.Param.check) share them.
 
 
+#: The largest float32: parameters enter the float32 kernels, where a larger value is inf.
+F32_MAX = 3.4028234663852886e38
+
+
 def _real(v: Any) -> bool:
-    return isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
+    return (
+        isinstance(v, numbers.Real)
+        and not isinstance(v, bool)
+        and math.isfinite(v)
+        and abs(v) <= F32_MAX
+    )
 
 
 def nonnegative(v: Any) -> str | None:
-    return None if _real(v) and v >= 0 else "must be a finite number >= 0"
+    return None if _real(v) and v >= 0 else "must be a finite number >= 0 (float32)"
 
 
 def unit_interval(v: Any) -> str | None:
@@ -43,7 +52,7 @@ def unit_interval(v: Any) -> str | None:
 
 
 def finite(v: Any) -> str | None:
-    return None if v is None or _real(v) else "must be a finite number"
+    return None if v is None or _real(v) else "must be a finite number (float32)"
 
 
 def require(name: str, value: Any, rule: Callable[[Any], str | None]) -> None:

@@ -115,11 +115,13 @@ def depth_normalizer(
         n, f = opaque(near), opaque(far)
     # A division (not a reciprocal) so that far maps to exactly 1. far == near (a flat frame, or
     # one finite pixel): the smallest normal float makes it a step, 0 up to near and 1 beyond.
-    span = dr.select(f > n, f - n, _F32_MIN)
+    # Halves (exact) keep far - near and Z - near finite even for depths near the float32 limit.
+    h = dr.maximum(f * 0.5 - n * 0.5, _F32_MIN)
+    span = dr.select(f > n, h, _F32_MIN)
     dr.eval(n, span)
 
     def normalize(v: Float) -> Float:
-        return dr.select(dr.isfinite(v), dr.clip((v - n) / span, 0.0, 1.0), 1.0)
+        return dr.select(dr.isfinite(v), dr.clip((v * 0.5 - n * 0.5) / span, 0.0, 1.0), 1.0)
 
     return normalize
 

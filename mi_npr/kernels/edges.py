@@ -83,7 +83,8 @@ def normal_edge(N: list[Field], ids: Field, angle_deg: float) -> Bool:
     """Pixels whose normal turns by more than ``angle_deg`` towards a 4-neighbour on the same
     object (lazy). ``angle > a`` is tested as ``dot(n0, n1) < cos(a) |n0| |n1|``, false for
     zero or non-finite normals."""
-    cos_a = opaque(math.cos(math.radians(angle_deg)))
+    # cos(radians(90)) is 6e-17, not 0: rounded, a right angle is not "more than 90 degrees".
+    cos_a = opaque(round(math.cos(math.radians(angle_deg)), 12))
     n0 = [f.at() for f in N]
     len0 = dr.sqrt(dr.fma(n0[0], n0[0], dr.fma(n0[1], n0[1], n0[2] * n0[2])))
     id0 = ids.at()
