@@ -168,26 +168,33 @@ def read_ply(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, dict
     end = data.find(b"end_header")
     if not data.startswith(b"ply") or end < 0:
         raise InputError(f"{p}: not a PLY file")
-    body_start = data.index(b"\n", end) + 1
+    body_start = data.find(b"\n", end) + 1
     lines = data[:end].decode("ascii", "replace").splitlines()
     fmt, elements = None, []
-    for ln in lines:
-        t = ln.split()
-        if not t:
-            continue
-        if t[0] == "format":
-            fmt = t[1]
-        elif t[0] == "element":
-            elements.append([t[1], int(t[2]), []])
-        elif t[0] == "property" and elements:
-            elements[-1][2].append(t[1:])
+    try:
+        for ln in lines:
+            t = ln.split()
+            if not t:
+                continue
+            if t[0] == "format":
+                fmt = t[1]
+            elif t[0] == "element":
+                elements.append([t[1], int(t[2]), []])
+                if elements[-1][1] < 0:
+                    raise ValueError(f"element {t[1]!r} has a negative count")
+            elif t[0] == "property" and elements:
+                elements[-1][2].append(t[1:])
+    except (ValueError, IndexError) as e:
+        raise InputError(f"{p}: malformed PLY header ({e})") from None
     if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
         raise InputError(f"{p}: unsupported PLY format {fmt!r}")
     try:
         if fmt == "ascii":
             return _read_ascii(data[body_start:].decode("ascii"), elements)
         return _read_binary(data, body_start, elements, "<" if "little" in fmt else ">")
-    except (ValueError, IndexError, KeyError) as e:
+    except StopIteration:
+        raise InputError(f"{p}: malformed PLY (the file ends before its last element)") from None
+    except (ValueError, IndexError, KeyError, UnicodeDecodeError) as e:
         raise InputError(f"{p}: malformed PLY ({e})") from None
 
 
@@ -229,34 +236,57 @@ def _read_binary(data: bytes, pos: int, elements: list, bo: str):
     vprops: dict[str, np.ndarray] = {}
     F = np.zeros((0, 3), np.uint32)
     for name, count, props in elements:
-        if all(pr[0] != "list" for pr in props):
-            dt = np.dtype([(pr[1], bo + _PLY_TYPES[pr[0]]) for pr in props])
+        for pr in props:
+            for t in pr[1:-1] if pr[0] == "list" else pr[:1]:
+                if t not in _PLY_TYPES:
+                    raise ValueError(f"unknown property type {t!r}")
+        lists = [j for j, pr in enumerate(props) if pr[0] == "list"]
+        # Fast path: one structured read when every list holds 3 items (triangles), whatever
+        # scalar properties (colours, ...) come with them.
+        fields = []
+        for j, pr in enumerate(props):
+            if pr[0] == "list":
+                fields.append((f"_n{j}", bo + _PLY_TYPES[pr[1]]))
+                fields.append((f"_l{j}", bo + _PLY_TYPES[pr[2]], 3))
+            else:
+                fields.append((f"_s{j}", bo + _PLY_TYPES[pr[0]]))
+        dt = np.dtype(fields)
+        arr = None
+        if pos + dt.itemsize * count <= len(data):
             arr = np.frombuffer(data, dtype=dt, count=count, offset=pos)
+            if not all(np.all(arr[f"_n{j}"] == 3) for j in lists):
+                arr = None
+        if arr is not None:
             pos += dt.itemsize * count
-            if name == "vertex":
-                vprops = {k: arr[k].astype(np.float64) for k in dt.names}
-            continue
-        if len(props) == 1 and props[0][0] == "list":
-            ct, it = np.dtype(bo + _PLY_TYPES[props[0][1]]), np.dtype(bo + _PLY_TYPES[props[0][2]])
-            # Fast path: all faces are triangles.
-            dt = np.dtype([("n", ct), ("i", it, (3,))])
-            if count and pos + dt.itemsize * count <= len(data):
-                arr = np.frombuffer(data, dtype=dt, count=count, offset=pos)
-                if np.all(arr["n"] == 3):
-                    if name == "face":
-                        F = arr["i"].astype(np.uint32)
-                    pos += dt.itemsize * count
-                    continue
-            polys = []
+            scalars = {props[j][1]: arr[f"_s{j}"] for j in range(len(props)) if j not in lists}
+            faces = [arr[f"_l{j}"].astype(np.int64) for j in lists]
+        else:  # record by record: polygons of any size
+            if not lists:
+                raise ValueError(f"element {name!r}: the file ends early")
+            scalars, faces = {}, []
+            cols: dict[int, list] = {j: [] for j in range(len(props)) if j not in lists}
+            polys: list[np.ndarray] = []
             for _ in range(count):
-                n = int(np.frombuffer(data, ct, 1, pos)[0])
-                pos += ct.itemsize
-                polys.append(np.frombuffer(data, it, n, pos).astype(np.int64))
-                pos += it.itemsize * n
-            if name == "face":
-                F = _triangulate(polys)
-            continue
-        raise ValueError(f"element {name!r} mixes list and scalar properties")
+                for j, pr in enumerate(props):
+                    if pr[0] == "list":
+                        ct, it = np.dtype(bo + _PLY_TYPES[pr[1]]), np.dtype(bo + _PLY_TYPES[pr[2]])
+                        n = int(np.frombuffer(data, ct, 1, pos)[0])
+                        pos += ct.itemsize
+                        items = np.frombuffer(data, it, n, pos).astype(np.int64)
+                        pos += it.itemsize * n
+                        if j == lists[0]:
+                            polys.append(items)
+                    else:
+                        t = np.dtype(bo + _PLY_TYPES[pr[0]])
+                        cols[j].append(np.frombuffer(data, t, 1, pos)[0])
+                        pos += t.itemsize
+            faces = [polys]
+            scalars = {props[j][1]: np.asarray(v) for j, v in cols.items()}
+        if name == "vertex":
+            vprops = {k: np.asarray(v, np.float64) for k, v in scalars.items()}
+        elif name == "face" and lists:
+            first = faces[0]
+            F = first.astype(np.uint32) if isinstance(first, np.ndarray) else _triangulate(first)
     V, extra = _vertices(vprops)
     return V, F, extra
 

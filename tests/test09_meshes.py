@@ -76,3 +76,50 @@ def test05_bad_files(tmp_path):
         read_ply(tmp_path / "x.ply")
     with pytest.raises(ValueError, match="does not exist"):
         write_ply(tmp_path / "y.ply", np.zeros((1, 3)), np.array([[0, 1, 2]]))
+
+
+def _binary_ply(path, header_faces: str, face_records: bytes, truncate: int = 0):
+    V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
+    head = (
+        "ply\nformat binary_little_endian 1.0\nelement vertex 4\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        f"{header_faces}end_header\n"
+    ).encode()
+    data = head + V.tobytes() + face_records
+    path.write_bytes(data[: len(data) - truncate])
+    return path
+
+
+def test06_binary_faces_with_colours_and_polygons(tmp_path):
+    # Per-face scalar properties (colours) beside the index list, as exporters write them.
+    header = (
+        "element face 2\nproperty list uchar int vertex_indices\n"
+        "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    )
+    tri = np.dtype([("n", "u1"), ("i", "<i4", 3), ("rgb", "u1", 3)])
+    recs = np.array([(3, (0, 1, 2), (255, 0, 0)), (3, (0, 2, 3), (0, 255, 0))], tri).tobytes()
+    V, F, _ = read_ply(_binary_ply(tmp_path / "c.ply", header, recs))
+    assert V.shape == (4, 3)
+    np.testing.assert_array_equal(F, [[0, 1, 2], [0, 2, 3]])
+    # A quad with a colour: record by record, triangulated.
+    quad = np.dtype([("n", "u1"), ("i", "<i4", 4), ("rgb", "u1", 3)])
+    header1 = header.replace("element face 2", "element face 1")
+    rec = np.array([(4, (0, 1, 2, 3), (1, 2, 3))], quad).tobytes()
+    _, F, _ = read_ply(_binary_ply(tmp_path / "q.ply", header1, rec))
+    np.testing.assert_array_equal(F, [[0, 1, 2], [0, 2, 3]])
+    with pytest.raises(InputError, match=r"t\.ply: malformed PLY"):
+        read_ply(_binary_ply(tmp_path / "t.ply", header1, rec, truncate=5))
+
+
+def test07_truncated_or_malformed_text_files_name_the_file(tmp_path):
+    head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+    head += "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+    cases = {
+        "short.ply": head + "0 0 0\n1 0 0\n",  # the file ends early
+        "count.ply": head.replace("vertex 3", "vertex x") + "0 0 0\n",
+        "word.ply": head + "0 0 zero\n1 0 0\n0 1 0\n3 0 1 2\n",
+    }
+    for name, text in cases.items():
+        (tmp_path / name).write_text(text)
+        with pytest.raises(InputError, match=rf"{name.replace('.', '[.]')}: malformed PLY"):
+            read_ply(tmp_path / name)

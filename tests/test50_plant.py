@@ -161,9 +161,14 @@ def test06_obj_files(tmp_path):
     assert sorted(plant.areas.round(6)) == [0.5, 0.5]
     (tmp_path / "pts.obj").write_text("v 0 0 0\nv 1 0 0\nvn 0 1 0\nvn 0 0 1\n")
     assert len(fo.read_plant(tmp_path / "pts.obj")) == 2
-    (tmp_path / "bad.obj").write_text("v 0 0 x\n")
-    with pytest.raises(InputError, match="malformed OBJ"):
-        fo.read_plant(tmp_path / "bad.obj")
+    for bad, why in (
+        ("v 0 0 x\n", "could not convert"),
+        ("v 0 0\n", "line 1: 'v' needs 3 coordinates"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "line 4: vertex 9 does not exist"),
+    ):
+        (tmp_path / "bad.obj").write_text(bad)
+        with pytest.raises(InputError, match=rf"bad\.obj: malformed OBJ \(.*{why}"):
+            fo.read_plant(tmp_path / "bad.obj")
     (tmp_path / "nan.obj").write_text("v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     with pytest.raises(InputError, match="non-finite"):
         fo.read_plant(tmp_path / "nan.obj")

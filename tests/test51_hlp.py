@@ -199,3 +199,35 @@ def test07_surface_area_and_samples_of_known_shapes():
     S = two.sample_surface(2000, np.random.default_rng(1))
     assert abs(np.mean(S[:, 0] > 25) - 0.5) < 0.05
     np.testing.assert_allclose(two.field(S), two.iso, rtol=1e-6)
+
+
+def test08_one_leaf_per_cluster_keeps_leaf_sized_blobs():
+    # Each leaf alone in its cluster is inside its blob at any scale: the radius fit must not
+    # shrink such blobs towards nothing (they would hold no leaf primitive).
+    for plant, k in (
+        (fo.procedural_tree(seed=0, n_leaves=2), None),
+        (fo.procedural_tree(seed=0, n_leaves=12), 12),
+    ):
+        h = fo.build_hlps(plant, k=k)
+        assert h.radii.min() >= np.mean(plant.sizes) * (1 - 1e-12)
+        assert h.surface_area() > 0
+        assert len(fo.make_leaves(h, leaf_size=0.05, seed=0)) > 0
+
+
+def test09_surface_area_travels_with_the_json(tmp_path):
+    r = 0.7
+    sphere = fo.HLPSet([[0, 0, 0]], [[r, r, r]], [np.eye(3)], [1.0])
+    path = sphere.save(tmp_path / "s.json")
+    stored = json.loads(path.read_text())["surface_area"]
+    assert stored == sphere.surface_area()
+    fo.hlp._AREAS.clear()
+    d = json.loads(path.read_text())
+    d["surface_area"] = 123.0  # a stored value is trusted for the geometry it was saved with
+    path.write_text(json.dumps(d))
+    assert fo.HLPSet.load(path).surface_area() == 123.0
+    fo.hlp._AREAS.clear()
+    d["surface_area"] = -1.0
+    path.write_text(json.dumps(d))
+    with pytest.raises(InputError, match=r"surface_area = -1\.0"):
+        fo.HLPSet.load(path)
+    fo.hlp._AREAS.clear()

@@ -135,3 +135,32 @@ class _nothing:
 
     def __exit__(self, *exc):
         return False
+
+
+def test04_file_names_that_xml_or_mitsuba_would_misread(tmp_path, capsys):
+    # & < > " are escaped in the scene's attributes; a '$' (a Mitsuba parameter) is refused
+    # before anything is written.
+    odd = tmp_path / 'a&b <"c">.xml'
+    assert (
+        cli.main(["foliage", "procedural:bush", "--style", "childrens_book", "-o", str(odd)]) == 0
+    )
+    capsys.readouterr()
+    out = tmp_path / "out"
+    args = ["render", str(odd), "-o", str(out), "-D", "width=24", "-D", "height=24", "-D", "spp=1"]
+    assert cli.main([*args, "--no-progress"]) == 0
+    assert read_exr(out / 'a&b <"c">.exr')[L.LEAF_ID].max() > 0
+    dollar = tmp_path / "d" / "tree$v1.xml"
+    assert cli.main(["foliage", "procedural:bush", "--style", "van_gogh", "-o", str(dollar)]) == 1
+    assert "a '$' in a file name cannot be used" in capsys.readouterr().err
+    assert not dollar.parent.exists() or not os.listdir(dollar.parent)
+
+
+def test05_two_leaf_plant_renders(tmp_path, capsys):
+    # One leaf per HLP cluster: the blobs keep a leaf's size, so the scene has leaves to draw.
+    plant = tmp_path / "p2.ply"
+    fo.procedural_tree(seed=0, n_leaves=2).save(plant)
+    scene = tmp_path / "s" / "two.xml"
+    assert cli.main(["foliage", str(plant), "--style", "childrens_book", "-o", str(scene)]) == 0
+    out = tmp_path / "o"
+    args = ["render", str(scene), "-o", str(out), "-D", "width=24", "-D", "height=24"]
+    assert cli.main([*args, "-D", "spp=1", "--no-progress"]) == 0, capsys.readouterr().err

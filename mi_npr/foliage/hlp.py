@@ -51,6 +51,7 @@ save/load it as JSON (:meth:`HLPSet.save`, :meth:`HLPSet.load`)::
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -85,6 +86,10 @@ def _orthonormal(name: str, axes: np.ndarray) -> np.ndarray:
     if np.any(s < 1e-6 * np.maximum(s.max(axis=-1, keepdims=True), 1e-300)):
         raise ParameterError(f"{name}: HLP axes must be 3 independent directions")
     return u @ vt
+
+
+#: Surface areas already estimated, by (geometry digest, seed, samples).
+_AREAS: dict[tuple[str, int, int], float] = {}
 
 
 @dataclass(frozen=True)
@@ -249,17 +254,32 @@ class HLPSet:
         pick = cells[rng.integers(0, len(cells), n)]
         return lo + h * (pick + rng.random((n, 3)))
 
+    def digest(self) -> str:
+        """A key of the blobs' geometry (to 9 decimals, so a JSON round trip keeps it)."""
+        h = hashlib.sha1()
+        for arr in (self.centers, self.radii, self.axes, self.weights, np.array([self.iso])):
+            h.update(np.ascontiguousarray(np.round(arr, 9) + 0.0).tobytes())
+        return h.hexdigest()
+
     def surface_area(self, seed: int = 0, samples: int = 100_000) -> float:
         """Area of the implicit surface: the volume of a thin shell around it over its thickness,
-        the volume measured by uniform samples in the grid cells that hold the shell."""
-        if not len(self):
-            return 0.0
-        _, h, cells = self._cells
-        if not len(cells):
-            return 0.0
-        p = self._shell_candidates(samples, np.random.default_rng(seed))
-        volume = float(np.mean(self._in_shell(p))) * len(cells) * h**3
-        return volume / (2 * self._shell())
+        the volume measured by uniform samples in the grid cells that hold the shell.
+
+        The cost grows with the number of blobs (a grid of up to ~1M points evaluates every
+        blob), so results are remembered per geometry, and :meth:`save` writes the default one
+        into the JSON file (``surface_area``), where :meth:`load` finds it again.
+        """
+        key = (self.digest(), seed, samples)
+        if key in _AREAS:
+            return _AREAS[key]
+        area = 0.0
+        _, h, cells = self._cells if len(self) else (None, 0.0, ())
+        if len(cells):
+            p = self._shell_candidates(samples, np.random.default_rng(seed))
+            volume = float(np.mean(self._in_shell(p))) * len(cells) * h**3
+            area = volume / (2 * self._shell())
+        _AREAS[key] = area
+        return area
 
     def project(self, P: np.ndarray, steps: int = 6) -> np.ndarray:
         """Newton steps along the gradient onto ``F = iso`` (each step at most 1/2 the smallest
@@ -315,6 +335,7 @@ class HLPSet:
             "format": FORMAT,
             "version": 1,
             "iso": self.iso,
+            "surface_area": self.surface_area(),
             "hlps": [
                 {
                     "center": self.centers[i].tolist(),
@@ -337,7 +358,13 @@ class HLPSet:
             r = np.array([h["radii"] for h in items], np.float64).reshape(-1, 3)
             a = np.array([h["axes"] for h in items], np.float64).reshape(-1, 3, 3)
             w = np.array([h.get("weight", 1.0) for h in items], np.float64).reshape(-1)
-            return cls(c, r, a, w, float(d.get("iso", ISO)), name)
+            hlps = cls(c, r, a, w, float(d.get("iso", ISO)), name)
+            area = d.get("surface_area")
+            if area is not None:  # written by save(): the default estimate of this geometry
+                if not (isinstance(area, (int, float)) and math.isfinite(area) and area >= 0):
+                    raise ValueError(f"surface_area = {area!r}")
+                _AREAS.setdefault((hlps.digest(), 0, 100_000), float(area))
+            return hlps
         except ParameterError as e:
             raise InputError(str(e)) from None
         except (AttributeError, KeyError, TypeError, ValueError) as e:
@@ -455,12 +482,18 @@ def build_hlps(
     radii = np.maximum(radii, floor[:, None])
     axes = np.transpose(vec, (0, 2, 1))  # eigenvectors as rows
     hlps = HLPSet(C, radii, axes, np.ones(kk), ISO, f"{plant.name} HLPs")
-    return _fit_scale(hlps, plant.centers, inside, seed)
+    hlps = _fit_scale(hlps, plant.centers, inside, seed)
+    # No blob smaller than a leaf: a cluster of one leaf (k close to the number of leaves) is
+    # inside its own blob at any scale, and the bisection would shrink it towards nothing.
+    lo, hi = plant.bbox()
+    smallest = max(float(np.mean(plant.sizes)), 1e-6 * float(np.linalg.norm(hi - lo)), 1e-9)
+    return replace(hlps, radii=np.maximum(hlps.radii, smallest))
 
 
 def _fit_scale(hlps: HLPSet, points: np.ndarray, inside: float, seed: int) -> HLPSet:
     """``hlps`` with every radius scaled by one factor, so that the fraction ``inside`` of
-    ``points`` lies inside the surface (bisection on the factor: ``F`` grows with it)."""
+    ``points`` lies inside the surface (the smallest such factor, by bisection: ``F`` grows
+    with it)."""
     rng = np.random.default_rng(seed)
     if len(points) > 20000:  # a sample fixes the factor well enough
         points = points[rng.choice(len(points), 20000, replace=False)]

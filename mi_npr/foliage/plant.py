@@ -251,15 +251,17 @@ def read_obj(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, np.n
             t = line.split()
             if not t or t[0].startswith("#"):
                 continue
-            if t[0] == "v":
-                verts.append([float(x) for x in t[1:4]])
-            elif t[0] == "vn":
-                normals.append([float(x) for x in t[1:4]])
+            if t[0] in ("v", "vn"):
+                if len(t) < 4:
+                    raise ValueError(f"line {lineno}: {t[0]!r} needs 3 coordinates")
+                (verts if t[0] == "v" else normals).append([float(x) for x in t[1:4]])
             elif t[0] == "f":
                 idx = []
                 for tok in t[1:]:
                     k = int(tok.split("/")[0])
                     idx.append(k - 1 if k > 0 else len(verts) + k)
+                    if not 0 <= idx[-1] < len(verts):
+                        raise ValueError(f"line {lineno}: vertex {k} does not exist")
                 if len(idx) < 3:
                     raise ValueError(f"line {lineno}: a face needs 3 vertices")
                 tris += [(idx[0], idx[j], idx[j + 1]) for j in range(1, len(idx) - 1)]

@@ -32,6 +32,7 @@ background; ``direct`` illumination (one bounce, what an illustrator shades with
 
 from __future__ import annotations
 
+import html
 import math
 import os
 from collections.abc import Mapping
@@ -185,7 +186,8 @@ def scene_xml(
     height: int = 400,
     spp: int = 16,
 ) -> str:
-    """The XML of a foliage scene in style ``st`` (file names relative to the XML)."""
+    """The XML of a foliage scene in style ``st`` (file names relative to the XML, already
+    escaped for an XML attribute)."""
     size = leaf_size if leaf_size is not None else st.leaf_size * diagonal(plant)
     a = st.abstraction if abstraction is None else abstraction
     if not (math.isfinite(size) and size > 0):
@@ -305,6 +307,12 @@ def write_foliage_scene(
     check_writable_dir(out.parent, create=True)
     h = hlps if hlps is not None else build_hlps(plant, k=k, seed=seed)
     rel = {k: os.path.relpath(p, out.parent) for k, p in files.items()}
+    for path in rel.values():
+        if "$" in path:  # Mitsuba reads $name in any attribute as a parameter, with no escape
+            raise ParameterError(f"{path}: a '$' in a file name cannot be used in a Mitsuba scene")
+        if any(ord(ch) < 32 for ch in path):
+            raise ParameterError(f"{path!r}: control characters cannot be used in an XML scene")
+    rel = {k: html.escape(p, quote=True) for k, p in rel.items()}  # & < > " in names
     wood = rel["wood"] if plant.wood is not None else None
     text = scene_xml(st, rel["plant"], rel["hlps"], plant, wood, leaf_size, abstraction, seed)
     written = [plant.save(files["plant"]), h.save(files["hlps"])]
