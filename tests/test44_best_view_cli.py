@@ -171,3 +171,27 @@ def test05_a_scene_without_sensor(tmp_path, capsys):
     (sensor,) = mi_npr.mi.load_file(str(out / "bare_best_view.xml")).sensors()
     assert mi_npr.camera_of(sensor).resolution == (512, 512)
     assert sensor.sampler().sample_count() == 16
+
+
+def test06_a_crop_window_does_not_change_the_rated_view(scene_path, tmp_path, capsys):
+    # The view is rated over the whole film (its fov is the whole film's): the written sensor
+    # has the whole film, no crop, and reproduces the quality the search reported.
+    text = scene_path.read_text().replace(
+        '<integer name="height" value="30"/>',
+        '<integer name="height" value="30"/><integer name="crop_width" value="20"/>'
+        '<integer name="crop_height" value="10"/>',
+    )
+    cropped = tmp_path / "cropped.xml"
+    cropped.write_text(text)
+    out = tmp_path / "out"
+    code, stdout, err = _run(
+        capsys, cropped, "--measure", "pb", "--depth", "1", "--res", "40", "-o", out, "--json"
+    )
+    assert code == 0, err
+    info = json.loads(stdout)
+    assert info["res"] == [40, 30]
+    (sensor,) = mi_npr.mi.load_file(str(out / "cropped_best_view.xml")).sensors()
+    assert tuple(sensor.film().crop_size()) == (40, 30)
+    scene = mi_npr.load_scene(cropped)
+    a = gbuffer_areas(scene, mi_npr.render_gbuffer(scene, sensor))
+    assert pb(a) == pytest.approx(info["quality"], rel=1e-9) and info["quality"] > 0

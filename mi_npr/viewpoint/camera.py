@@ -1,8 +1,9 @@
 """The best view as a Mitsuba camera, and the viewing sphere as a picture.
 
 :func:`sensor_xml` writes a :class:`~mi_npr.viewpoint.BestView` as a ``perspective`` sensor with
-a ``lookat`` transform, and with the field of view, clip planes, sampler and film (size, crop
-window, reconstruction filter) of the scene's own sensor. The ``<sensor>`` element is wrapped in a
+a ``lookat`` transform, and with the field of view, clip planes, sampler and film (size and
+reconstruction filter; not a crop window, since the view is rated over the whole film) of the
+scene's own sensor. The ``<sensor>`` element is wrapped in a
 ``<scene version="3.0.0">`` root, because Mitsuba loads or includes only files with a versioned
 root and rejects a ``version`` attribute on a nested ``<sensor>``: so the file loads on its own
 (``mi.load_file`` gives a scene with that one sensor), ``<include filename="..."/>`` adds its
@@ -71,18 +72,16 @@ def _sensor_settings(best: BestView, scene: mi.Scene, sensor: int | mi.Sensor) -
     if not scene.sensors() and not isinstance(sensor, mi.Sensor):
         w = DEFAULT_WIDTH
         h = max(1, round(w * best.size[1] / best.size[0]))
-        return dict(near=1e-2, far=1e4, size=(w, h), crop=None, rfilter="", sampler="independent",
+        return dict(near=1e-2, far=1e4, size=(w, h), rfilter="", sampler="independent",
                     spp=DEFAULT_SPP)  # fmt: skip
     s = sensor_of(scene, sensor)
     params = mi.traverse(s)
     film = s.film()
     size = tuple(int(v) for v in film.size())
-    crop = (*(int(v) for v in film.crop_offset()), *(int(v) for v in film.crop_size()))
     return dict(
         near=float(params["near_clip"]) if "near_clip" in params else 1e-2,
         far=float(params["far_clip"]) if "far_clip" in params else 1e4,
         size=size,
-        crop=None if crop == (0, 0, *size) else crop,
         rfilter=_rfilter_xml(film),
         sampler=_SAMPLERS.get(s.sampler().class_name(), "independent"),
         spp=int(s.sampler().sample_count()),
@@ -93,20 +92,14 @@ def sensor_xml(best: BestView, scene: mi.Scene, sensor: int | mi.Sensor = 0) -> 
     """The XML text of a file holding ``best`` as a Mitsuba sensor (module docstring).
 
     Copied from the scene's ``sensor``: near/far clip, sampler type and sample count, film
-    width/height and crop window, reconstruction filter (type and size; a ``mitchell`` filter's
+    width/height (not its crop window: the view is rated, and written, for the whole film),
+    reconstruction filter (type and size; a ``mitchell`` filter's
     B and C fall back to their defaults). Written: ``fov`` = the horizontal field of view used
     by the search, with ``fov_axis="x"``. A scene without a sensor gets a ``DEFAULT_WIDTH``
     pixel wide film of the search's aspect ratio, ``DEFAULT_SPP`` samples per pixel.
     """
     st = _sensor_settings(best, scene, sensor)
     w, h = st["size"]
-    crop = ""
-    if st["crop"] is not None:
-        names = ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")
-        crop = "".join(
-            f'\n            <integer name="{k}" value="{v}"/>'
-            for k, v in zip(names, st["crop"], strict=True)
-        )
     rfilter = f"\n            {st['rfilter']}" if st["rfilter"] else ""
     comment = (
         f"best view by mi-npr: measure {best.measure}, quality {best.quality:.6g}, "
@@ -131,7 +124,7 @@ def sensor_xml(best: BestView, scene: mi.Scene, sensor: int | mi.Sensor = 0) -> 
         </sampler>
         <film type="hdrfilm">
             <integer name="width" value="{w}"/>
-            <integer name="height" value="{h}"/>{crop}{rfilter}
+            <integer name="height" value="{h}"/>{rfilter}
         </film>
     </sensor>
 </scene>

@@ -162,8 +162,11 @@ def viewing(
 ) -> Viewing:
     """The viewing setup of ``scene`` with the defaults of the module docstring filled in."""
     if scene.sensors() or isinstance(sensor, mi.Sensor):
-        cam = camera_of(sensor_of(scene, sensor))
-        aspect, up = cam.resolution[0] / cam.resolution[1], _nearest_axis(cam.up)
+        s = sensor_of(scene, sensor)
+        cam = camera_of(s)
+        # The whole film's aspect (its fov is the whole film's), not a crop window's.
+        fw, fh = (int(v) for v in s.film().size())
+        aspect, up = fw / fh, _nearest_axis(cam.up)
         fov = float(cam.fov) if fov is None and cam.fov is not None else fov
     else:  # a scene built in Python may have no sensor: a square view, +y up
         aspect, up = 1.0, np.array([0.0, 1.0, 0.0])
