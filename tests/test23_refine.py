@@ -126,19 +126,15 @@ def test07_full_resolution_casts_few_rays():
     ]
 
 
-def _spheres(rng, n, w, h):
+def _spheres(rng, n, w, h, camera="perspective"):
     mi = mi_npr.mi
-    d = {
-        "type": "scene",
-        "sensor": {
-            "type": "perspective",
-            "fov": 40,
-            "to_world": mi.ScalarTransform4f().look_at(
-                origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0]
-            ),
-            "film": {"type": "hdrfilm", "width": w, "height": h},
-        },
-    }
+    to_world = mi.ScalarTransform4f().look_at(origin=[0, 0, 0], target=[0, 0, 1], up=[0, 1, 0])
+    sensor = {"type": camera, "film": {"type": "hdrfilm", "width": w, "height": h}}
+    if camera == "perspective":
+        sensor |= {"fov": 40, "to_world": to_world}
+    else:  # orthographic: a 5 x 5 window, about what the perspective camera sees at z = 6
+        sensor |= {"to_world": to_world @ mi.ScalarTransform4f().scale([2.5, 2.5, 1])}
+    d = {"type": "scene", "sensor": sensor}
     for i in range(n):
         small = rng.random() < 0.5
         d[f"s{i:02d}"] = {
@@ -153,13 +149,15 @@ def _spheres(rng, n, w, h):
     return mi.load_dict(d, optimize=False)
 
 
-def test08_small_objects_are_guarded():
+@pytest.mark.parametrize("camera", ["perspective", "orthographic"])
+def test08_small_objects_are_guarded(camera):
     """Random scenes of small and large spheres: with the guard nothing is missed; without it,
-    spheres between the macro-pixel corners are (the paper's limitation)."""
+    spheres between the macro-pixel corners are (the paper's limitation). An orthographic
+    camera has no sample_direction: its boxes are projected along its parallel rays."""
     rng = np.random.default_rng(7)
     missed_without = 0
     for _ in range(6):
-        scene = _spheres(rng, 12, 96, 72)
+        scene = _spheres(rng, 12, 96, 72, camera)
         ref = buffer_contours(scene)
         got, _ = trace_scene(scene)
         assert_same(got, ref)

@@ -93,12 +93,17 @@ def test04_svg_options_and_odd_names(tmp_path):
         Contour(1, "beauty", [[0, 0]]),
         Contour(2, "beauty ", [[1, 1], [2, 1]], closed=False),
         Contour(3, "", [[3, 3]]),
+        Contour(4, "tab\tbell\x07 <&>", [[4, 4]]),  # XML cannot hold \x07, even escaped
     ]
-    path = write_svg(tmp_path / "c.svg", cs, 5, 5, color=(0, 1, 0), stroke_width=2)
-    root = ET.parse(path).getroot()
+    path = write_svg(
+        tmp_path / "c.svg", cs, 5, 5, color=(0, 1, 0), stroke_width=2, title="a\x01 & b"
+    )
+    root = ET.parse(path).getroot()  # well-formed
+    names = [g.get("data-name") for g in root.findall(f"{SVG}g/{SVG}g")]
+    assert names[3] == "tab\tbell\ufffd <&>" and root.find(f"{SVG}title").text == "a\ufffd & b"
     assert root.find(f"{SVG}image") is None
     ids = [g.get("id") for g in root.findall(f"{SVG}g/{SVG}g")]
-    assert len(set(ids)) == 3 and "beauty" not in ids  # the image's id stays unique
+    assert len(set(ids)) == 4 and "beauty" not in ids  # the image's id stays unique
     paths = root.findall(f".//{SVG}path")
     assert paths[0].get("d") == "M 0.5 0.5 Z" and not paths[1].get("d").endswith("Z")
     assert root.find(f"{SVG}g").get("stroke") == "#00ff00"

@@ -15,8 +15,9 @@ from them; both cast rays on demand instead of rendering an ID buffer. :func:`tr
    between them, hide between corner rays like small shapes do) whose projected bounding box is
    at most two macro pixels wide *or* tall can fall between the corner rays; every pixel of that
    box (clipped to the image) is cast, in one batch. Its cost is proportional to the small
-   objects' screen area. Objects whose box crosses the camera plane, and sensors without
-   ``sample_direction``, are not guarded.
+   objects' screen area. Boxes are projected with the sensor's ``sample_direction``, or along
+   the parallel rays of an orthographic camera; objects whose box crosses the camera plane,
+   and other sensors without ``sample_direction``, are not guarded.
 3. **Following** (section 3.2). Every pair of 4-adjacent known pixels with different ids is a crack
    of a contour (see :mod:`mi_npr.contours.trace`); the follower needs, for each crack, the two
    pixels ahead of it (and, to grow in both directions at once, the two behind it). Those are cast
@@ -178,11 +179,34 @@ class RayCaster(Caster):
                     it.p = mi.Point3f(*(float(v) for v in p))
                     ds, _ = self.sensor.sample_direction(it, mi.Point2f(0.5, 0.5))
                     uv[i] = [float(ds.uv[0]), float(ds.uv[1])]
-        except Exception:  # a sensor without sample_direction: no guard
-            return None
+        except Exception:  # no sample_direction (orthographic): parallel rays are affine
+            uv = _affine_projection(self.sensor, corners.reshape(-1, 3))
+            if uv is None:
+                return None
         uv = uv.reshape(-1, 8, 2)
         front = (depth > cam.near_clip).all(axis=1) & np.isfinite(uv).all(axis=(1, 2))
         return np.concatenate([uv.min(axis=1), uv.max(axis=1)], axis=1)[front]
+
+
+def _affine_projection(sensor: mi.Sensor, points: np.ndarray) -> np.ndarray | None:
+    """Film positions (pixels of the crop window) of world ``points`` for a sensor whose rays
+    are parallel (an orthographic camera): the film point ``(u, v)`` casts from ``o + u a + v b``
+    along ``d``, so ``p - o = u a + v b + t d`` is a 3x3 solve. ``None`` for any other sensor."""
+
+    def ray(x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
+        r = pixel_rays(sensor, mi.Float(x) if dr.is_jit_v(mi.Float) else x, y)
+        o = np.asarray([float(dr.ravel(c)[0]) for c in (r.o.x, r.o.y, r.o.z)])
+        d = np.asarray([float(dr.ravel(c)[0]) for c in (r.d.x, r.d.y, r.d.z)])
+        return o, d
+
+    (o, d), (ox, dx), (oy, dy) = ray(0.0, 0.0), ray(1.0, 0.0), ray(0.0, 1.0)
+    if not (np.allclose(d, dx, atol=1e-6) and np.allclose(d, dy, atol=1e-6)):
+        return None  # rays from a point (a camera model without sample_direction): no guard
+    M = np.stack([ox - o, oy - o, d], axis=1)
+    if abs(np.linalg.det(M)) < 1e-30:
+        return None
+    uvt = np.linalg.solve(M, (np.asarray(points, np.float64) - o).T).T
+    return uvt[:, :2]
 
 
 def _grid_points(n: int, step: int) -> np.ndarray:

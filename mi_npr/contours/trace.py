@@ -48,7 +48,11 @@ its border-follower contour) instead of one per object. Where it goes wrong, by 
   of the piece is not traced;
 - it never adds a pixel that is not a contour pixel (the test is a subset of the definition), but
   its union can miss contour pixels and two contours may share pixels (outer border and hole of a
-  1-pixel-thick ring).
+  1-pixel-thick ring);
+- since colouring is per contour, a hole's walk may wander on along the object's other border
+  pixels, so on inputs with very many holes its cost grows much faster than the image: a
+  640x480 one-pixel checkerboard (153,600 holes) takes about 50 s, against 1.5 s for the
+  border follower. On rendered scenes both take milliseconds.
 
 The tests show each case; the border follower has none of them.
 """

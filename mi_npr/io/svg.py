@@ -127,7 +127,7 @@ def svg_document(
         name, paths = groups[k]
         gid = xml_id(name, taken, str(k))
         out.append(
-            f'  <g id={quoteattr(gid)} data-object-id="{k}" data-name={quoteattr(name)} '
+            f'  <g id={quoteattr(gid)} data-object-id="{k}" data-name={quoteattr(_xml_safe(name))} '
             'fill-rule="evenodd">'
         )
         out.extend(paths)
@@ -137,7 +137,17 @@ def svg_document(
     return "\n".join(out) + "\n"
 
 
+#: Characters XML 1.0 cannot hold at all, not even escaped (control characters, U+FFFE/FFFF).
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
+
+
+def _xml_safe(s: str) -> str:
+    """``s`` without the characters XML cannot hold (each becomes U+FFFD)."""
+    return _NOT_XML.sub("\ufffd", s)
+
+
 def _text(s: str) -> str:
+    s = _xml_safe(s)
     return s.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
 
 

@@ -117,8 +117,10 @@ def signature(
 
     ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3.
 
-    >>> mi_npr.raytree.signature("scenes_xml/scene1.xml", 320, 300)  # doctest: +SKIP
-    '2BL1L2C'
+    >>> mi_npr.raytree.signature("scenes_xml/scene1.xml", 350, 260)  # doctest: +SKIP
+    '2BL1L2DL1'
+
+    (object D, lit by light 1, whose mirror reflection hits B, lit by lights 1 and 2).
     """
     scene = load_scene(scene)
     s = sensor_of(scene, sensor)
