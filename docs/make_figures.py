@@ -16,6 +16,29 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "images"
 
 
+def _figure(
+    panels: list,
+    name: str,
+    shape: tuple[int, int],
+    size: tuple[float, float],
+    dpi: int,
+    suptitle: str | None = None,
+) -> Path:
+    """Save ``panels`` ((image, title) or (image, title, imshow options)) as a grid."""
+    fig, ax = plt.subplots(*shape, figsize=size)
+    for a, (img, title, *kw) in zip(np.ravel(ax), panels, strict=True):
+        a.imshow(img, **(kw[0] if kw else {}))
+        a.set_title(title)
+        a.axis("off")
+    if suptitle:
+        fig.suptitle(suptitle)
+    fig.tight_layout()
+    path = OUT / name
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
 def gbuffer_panel() -> Path:
     gb = mi_npr.render(ROOT / "scenes_xml" / "scene1.xml", width=320, height=240, spp=64)
     z = np.where(np.isfinite(gb["Z"]), gb["Z"], np.nan)
@@ -27,66 +50,40 @@ def gbuffer_panel() -> Path:
         (gb["prim_id"] % 7, "prim_id (mod 7)", {"cmap": "viridis", "interpolation": "nearest"}),
         (np.clip(np.abs(gb.positions) / 4, 0, 1), "|P.X P.Y P.Z| / 4", {}),
     ]
-    fig, ax = plt.subplots(2, 3, figsize=(12, 6.2))
-    for a, (img, title, kw) in zip(ax.flat, panels, strict=True):
-        a.imshow(img, **kw)
-        a.set_title(title)
-        a.axis("off")
-    fig.tight_layout()
-    path = OUT / "gbuffer_scene1.png"
-    fig.savefig(path, dpi=80)
-    return path
+    return _figure(panels, "gbuffer_scene1.png", (2, 3), (12, 6.2), 80)
 
 
 def lines_panel() -> Path:
     path_xml = ROOT / "scenes_xml" / "scene4.xml"
     gb = mi_npr.render(path_xml, width=640, height=480, spp=64, integrator="npr_lines")
     extra = np.asarray(mi_npr.kernels.lines(gb, id_edges=True, normal_edges=30.0))
+    gray = {"cmap": "gray", "vmin": 0, "vmax": 1}
     panels = [
         (mi_npr.io.to_rgb8(gb.beauty), "R G B (npr_lines, defaults)"),
-        (1.0 - gb["lines"], "lines"),
-        (1.0 - extra, "lines, id_edges + normal_edges=30"),
+        (1.0 - gb["lines"], "lines", gray),
+        (1.0 - extra, "lines, id_edges + normal_edges=30", gray),
     ]
-    fig, ax = plt.subplots(1, 3, figsize=(15, 4.3))
-    for a, (img, title) in zip(ax, panels, strict=True):
-        a.imshow(img, cmap="gray", vmin=0, vmax=1)
-        a.set_title(title)
-        a.axis("off")
-    fig.tight_layout()
-    path = OUT / "lines_scene4.png"
-    fig.savefig(path, dpi=100, bbox_inches="tight")
-    return path
+    return _figure(panels, "lines_scene4.png", (1, 3), (15, 4.3), 100)
 
 
 def contours_panel() -> Path:
     """The paper's Fig. 10: apparent contours in red over scenes 1 and 3."""
-    fig, ax = plt.subplots(1, 2, figsize=(12, 5.0))
-    for a, name in zip(ax, ("scene1", "scene3"), strict=True):
+    panels = []
+    for name in ("scene1", "scene3"):
         gb, _ = mi_npr.contours.render_contours(
             ROOT / "scenes_xml" / f"{name}.xml", width=320, height=240, spp=64
         )
-        a.imshow(mi_npr.io.to_rgb8(gb.beauty))
-        a.set_title(f"mi-npr contours scenes_xml/{name}.xml")
-        a.axis("off")
-    fig.tight_layout()
-    path = OUT / "contours_scenes.png"
-    fig.savefig(path, dpi=80)
-    return path
+        panels.append((mi_npr.io.to_rgb8(gb.beauty), f"mi-npr contours scenes_xml/{name}.xml"))
+    return _figure(panels, "contours_scenes.png", (1, 2), (12, 5.0), 80)
 
 
 def raytree_panel() -> Path:
-    scenes = ("scene1.xml", "raytree_mirror_glass.xml")
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.4))
-    for a, name in zip(ax, scenes, strict=True):
+    panels = []
+    for name in ("scene1.xml", "raytree_mirror_glass.xml"):
         gb = mi_npr.raytree.render(ROOT / "scenes_xml" / name, width=400, height=300, spp=64)
-        a.imshow(mi_npr.io.to_rgb8(gb.beauty))
-        a.set_title(name)
-        a.axis("off")
-    fig.suptitle("ray-tree edges: real red, reflection blue, refraction green, shadow gray")
-    fig.tight_layout()
-    path = OUT / "raytree_edges.png"
-    fig.savefig(path, dpi=72)
-    return path
+        panels.append((mi_npr.io.to_rgb8(gb.beauty), name))
+    title = "ray-tree edges: real red, reflection blue, refraction green, shadow gray"
+    return _figure(panels, "raytree_edges.png", (1, 2), (11, 4.4), 72, title)
 
 
 def foliage_panel() -> Path:
@@ -104,15 +101,7 @@ def foliage_panel() -> Path:
         )
         leaf = (gb["leaf_id"] > 0)[..., None]
         panels.append((np.where(leaf, gb.normals * 0.5 + 0.5, 1.0)[crop], f"N, abstraction {a:g}"))
-    fig, ax = plt.subplots(1, len(panels), figsize=(3.0 * len(panels), 2.6))
-    for a, (img, title) in zip(ax, panels, strict=True):
-        a.imshow(img)
-        a.set_title(title)
-        a.axis("off")
-    fig.tight_layout()
-    path = OUT / "foliage_styles.png"
-    fig.savefig(path, dpi=80, bbox_inches="tight")
-    return path
+    return _figure(panels, "foliage_styles.png", (1, len(panels)), (3.0 * len(panels), 2.6), 80)
 
 
 def overview_panel() -> Path:
@@ -123,19 +112,11 @@ def overview_panel() -> Path:
     contours, _ = mi_npr.contours.render_contours(path_xml, **size)
     edges = mi_npr.raytree.render(path_xml, **size)
     panels = [
-        (lines, "npr_lines: depth contours (eqs. 5.1-5.4)"),
-        (contours, "npr_contours: apparent contours of real objects"),
-        (edges, "npr_raytree: real / reflection / refraction / shadow"),
+        (mi_npr.io.to_rgb8(lines.beauty), "npr_lines: depth contours (eqs. 5.1-5.4)"),
+        (mi_npr.io.to_rgb8(contours.beauty), "npr_contours: apparent contours of real objects"),
+        (mi_npr.io.to_rgb8(edges.beauty), "npr_raytree: real / reflection / refraction / shadow"),
     ]
-    fig, ax = plt.subplots(1, 3, figsize=(15, 3.9))
-    for a, (gb, title) in zip(ax, panels, strict=True):
-        a.imshow(mi_npr.io.to_rgb8(gb.beauty))
-        a.set_title(title)
-        a.axis("off")
-    fig.tight_layout()
-    path = OUT / "overview_scene1.png"
-    fig.savefig(path, dpi=80, bbox_inches="tight")
-    return path
+    return _figure(panels, "overview_scene1.png", (1, 3), (15, 3.9), 80)
 
 
 PANELS = {
