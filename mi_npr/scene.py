@@ -81,8 +81,8 @@ def load_scene(
         if unused:
             known = ", ".join(sorted(declared_defaults(path))) or "none"
             raise SceneError(
-                f"{path}: -D {', '.join(unused)}: the scene uses no such parameter "
-                f"(Found unused parameters; its <default>s: {known})"
+                f"{path}: the scene uses no parameter named {', '.join(unused)} "
+                f"(a define it cannot use; its <default>s: {known})"
             ) from None
         msg = one_line(e)
         if path not in msg:
