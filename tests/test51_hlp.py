@@ -218,16 +218,19 @@ def test09_surface_area_travels_with_the_json(tmp_path):
     r = 0.7
     sphere = fo.HLPSet([[0, 0, 0]], [[r, r, r]], [np.eye(3)], [1.0])
     path = sphere.save(tmp_path / "s.json")
-    stored = json.loads(path.read_text())["surface_area"]
-    assert stored == sphere.surface_area()
-    fo.hlp._AREAS.clear()
     d = json.loads(path.read_text())
-    d["surface_area"] = 123.0  # a stored value is trusted for the geometry it was saved with
+    assert d["surface_area"] == {"value": sphere.surface_area(), "geometry": sphere.digest()}
+    fo.hlp._AREAS.clear()
+    d["surface_area"]["value"] = 123.0  # trusted for the blobs it was saved with
     path.write_text(json.dumps(d))
     assert fo.HLPSet.load(path).surface_area() == 123.0
     fo.hlp._AREAS.clear()
-    d["surface_area"] = -1.0
+    d["hlps"][0]["radii"] = [1.0, 1.0, 1.0]  # edited by hand: the stored value no longer counts
     path.write_text(json.dumps(d))
-    with pytest.raises(InputError, match=r"surface_area = -1\.0"):
+    assert fo.HLPSet.load(path).surface_area() == pytest.approx(4 * np.pi, rel=0.03)
+    fo.hlp._AREAS.clear()
+    d["surface_area"]["value"] = -1.0
+    path.write_text(json.dumps(d))
+    with pytest.raises(InputError, match=r"surface_area = .*-1\.0"):
         fo.HLPSet.load(path)
     fo.hlp._AREAS.clear()

@@ -335,7 +335,6 @@ class HLPSet:
             "format": FORMAT,
             "version": 1,
             "iso": self.iso,
-            "surface_area": self.surface_area(),
             "hlps": [
                 {
                     "center": self.centers[i].tolist(),
@@ -360,10 +359,12 @@ class HLPSet:
             w = np.array([h.get("weight", 1.0) for h in items], np.float64).reshape(-1)
             hlps = cls(c, r, a, w, float(d.get("iso", ISO)), name)
             area = d.get("surface_area")
-            if area is not None:  # written by save(): the default estimate of this geometry
-                if not (isinstance(area, (int, float)) and math.isfinite(area) and area >= 0):
+            if area is not None:  # written by save(): the default estimate, and for which blobs
+                value = area.get("value") if isinstance(area, dict) else None
+                if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                     raise ValueError(f"surface_area = {area!r}")
-                _AREAS.setdefault((hlps.digest(), 0, 100_000), float(area))
+                if area.get("geometry") == hlps.digest():  # blobs edited by hand: recomputed
+                    _AREAS.setdefault((area["geometry"], 0, 100_000), float(value))
             return hlps
         except ParameterError as e:
             raise InputError(str(e)) from None
@@ -371,8 +372,10 @@ class HLPSet:
             raise InputError(f"{name}: malformed HLP description ({e})") from None
 
     def save(self, path: str | os.PathLike[str]) -> Path:
-        """Write the JSON description (atomic)."""
+        """Write the JSON description (atomic), with the surface area of these blobs (so loading
+        the file does not estimate it again; ignored once the blobs are edited)."""
         d = self.to_dict()
+        d["surface_area"] = {"value": self.surface_area(), "geometry": self.digest()}
         items = ",\n  ".join(json.dumps(h) for h in d.pop("hlps"))
         head = json.dumps(d)[:-1]  # one HLP per line: readable, diffable, small
         target = Path(path)
