@@ -275,7 +275,7 @@ def _cmd_best_view(args: argparse.Namespace) -> int:
         args.depth,
         args.res,
         ignore=args.ignore,
-        **dict(args.defines),
+        defines=dict(args.defines),
     )
     if args.json:
         info = {"scene": args.scene, **best.to_dict()}
