@@ -144,6 +144,14 @@ def camera_of(sensor: mi.Sensor) -> Camera:
     return Camera(m, (int(w), int(h)), fov, kind, near, far)
 
 
+def shape_bbox(shape: mi.Shape) -> np.ndarray:
+    """A shape's world bounding box as a float64 (2, 3) array: ``[min, max]``."""
+    bb = shape.bbox()
+    lo = np.asarray(bb.min, np.float64).reshape(-1)[:3]
+    hi = np.asarray(bb.max, np.float64).reshape(-1)[:3]
+    return np.stack([lo, hi])
+
+
 def _auto_name(shape: mi.Shape) -> str:
     """A name for a shape without an XML id: type + hash of bbox and primitive count."""
     bb = shape.bbox()

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..meshes import face_components
-from ..scene import ObjectTable, object_table
+from ..scene import ObjectTable, object_table, shape_bbox
 
 ID_MODES = ("shape", "primitive", "component")
 
@@ -46,13 +46,6 @@ def _mesh_arrays(shape: mi.Shape) -> tuple[np.ndarray, np.ndarray]:
     F = np.asarray(shape.faces_buffer().numpy(), np.int64).reshape(-1, 3)
     V = np.asarray(shape.vertex_positions_buffer().numpy(), np.float32).reshape(-1, 3)
     return F, V
-
-
-def _bbox(shape: mi.Shape) -> np.ndarray:
-    bb = shape.bbox()
-    lo = np.asarray(bb.min, np.float64).reshape(-1)[:3]
-    hi = np.asarray(bb.max, np.float64).reshape(-1)[:3]
-    return np.stack([lo, hi])
 
 
 @dataclass
@@ -106,7 +99,7 @@ class IdMap:
 def _part_boxes(table: ObjectTable) -> np.ndarray:
     boxes = []
     for shape in table.shapes.values():
-        boxes.append(_bbox(shape))
+        boxes.append(shape_bbox(shape))
         if shape.is_mesh() and shape.primitive_count() > 1:
             F, V = _mesh_arrays(shape)
             comp = face_components(F, V)

@@ -45,7 +45,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from ..scene import ObjectTable
+from ..scene import ObjectTable, shape_bbox
 
 #: How each emitter's shadow ray is aimed (see the module docstring).
 POSITION, DIRECTION, AREA, ENVIRONMENT = "position", "direction", "area", "environment"
@@ -133,9 +133,7 @@ def sky_direction(emitter: mi.Emitter) -> mi.Vector3f:
 
 
 def _bbox_centre(shape: mi.Shape) -> mi.Point3f:
-    bb = shape.bbox()
-    c = (np.asarray(bb.min, np.float64).ravel() + np.asarray(bb.max, np.float64).ravel()) / 2
-    return mi.Point3f(*(float(v) for v in c))
+    return mi.Point3f(*(float(v) for v in shape_bbox(shape).mean(axis=0)))
 
 
 def visible_lights(

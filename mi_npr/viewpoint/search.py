@@ -46,7 +46,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError, SceneError
-from ..scene import camera_of, load_scene, sensor_of
+from ..scene import camera_of, load_scene, sensor_of, shape_bbox
 from . import idbuffer
 from .measures import MEASURES, Topology, check_measure
 
@@ -129,11 +129,8 @@ def _bounding_sphere(
     if ignore and polys is not None:
         kept = [s for k, s in polys.table.shapes.items() if polys.table.names[k] not in ignore]
         if kept:
-            bb = mi.ScalarBoundingBox3f()
-            for shape in kept:
-                b = shape.bbox()
-                bb.expand(mi.ScalarPoint3f(np.asarray(b.min, np.float64).ravel()[:3]))
-                bb.expand(mi.ScalarPoint3f(np.asarray(b.max, np.float64).ravel()[:3]))
+            boxes = np.stack([shape_bbox(s) for s in kept])
+            bb = mi.ScalarBoundingBox3f(boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0))
     bs = bb.bounding_sphere()
     c = np.asarray(bs.center, np.float64).ravel()[:3]
     r = float(np.asarray(bs.radius).ravel()[0])
