@@ -259,13 +259,12 @@ def _read_binary(data: bytes, pos: int, elements: list, bo: str):
         if arr is not None:
             pos += dt.itemsize * count
             scalars = {props[j][1]: arr[f"_s{j}"] for j in range(len(props)) if j not in lists}
-            faces = [arr[f"_l{j}"].astype(np.int64) for j in lists]
+            polys = arr[f"_l{lists[0]}"] if lists else None  # (count, 3) triangles
         else:  # record by record: polygons of any size
             if not lists:
                 raise ValueError(f"element {name!r}: the file ends early")
-            scalars, faces = {}, []
             cols: dict[int, list] = {j: [] for j in range(len(props)) if j not in lists}
-            polys: list[np.ndarray] = []
+            polys = []
             for _ in range(count):
                 for j, pr in enumerate(props):
                     if pr[0] == "list":
@@ -280,13 +279,11 @@ def _read_binary(data: bytes, pos: int, elements: list, bo: str):
                         t = np.dtype(bo + _PLY_TYPES[pr[0]])
                         cols[j].append(np.frombuffer(data, t, 1, pos)[0])
                         pos += t.itemsize
-            faces = [polys]
             scalars = {props[j][1]: np.asarray(v) for j, v in cols.items()}
         if name == "vertex":
             vprops = {k: np.asarray(v, np.float64) for k, v in scalars.items()}
-        elif name == "face" and lists:
-            first = faces[0]
-            F = first.astype(np.uint32) if isinstance(first, np.ndarray) else _triangulate(first)
+        elif name == "face" and polys is not None:  # the first list: the vertex indices
+            F = polys.astype(np.uint32) if isinstance(polys, np.ndarray) else _triangulate(polys)
     V, extra = _vertices(vprops)
     return V, F, extra
 

@@ -90,6 +90,8 @@ def _orthonormal(name: str, axes: np.ndarray) -> np.ndarray:
 
 #: Surface areas already estimated, by (geometry digest, seed, samples).
 _AREAS: dict[tuple[str, int, int], float] = {}
+#: The estimate's default seed and sample count (the one a saved file records).
+AREA_SEED, AREA_SAMPLES = 0, 100_000
 
 
 @dataclass(frozen=True)
@@ -261,7 +263,7 @@ class HLPSet:
             h.update(np.ascontiguousarray(np.round(arr, 9) + 0.0).tobytes())
         return h.hexdigest()
 
-    def surface_area(self, seed: int = 0, samples: int = 100_000) -> float:
+    def surface_area(self, seed: int = AREA_SEED, samples: int = AREA_SAMPLES) -> float:
         """Area of the implicit surface: the volume of a thin shell around it over its thickness,
         the volume measured by uniform samples in the grid cells that hold the shell.
 
@@ -273,8 +275,9 @@ class HLPSet:
         if key in _AREAS:
             return _AREAS[key]
         area = 0.0
-        _, h, cells = self._cells if len(self) else (None, 0.0, ())
+        cells = self._cells[2] if len(self) else ()
         if len(cells):
+            h = self._cells[1]
             p = self._shell_candidates(samples, np.random.default_rng(seed))
             volume = float(np.mean(self._in_shell(p))) * len(cells) * h**3
             area = volume / (2 * self._shell())
@@ -364,7 +367,7 @@ class HLPSet:
                 if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                     raise ValueError(f"surface_area = {area!r}")
                 if area.get("geometry") == hlps.digest():  # blobs edited by hand: recomputed
-                    _AREAS.setdefault((area["geometry"], 0, 100_000), float(value))
+                    _AREAS.setdefault((area["geometry"], AREA_SEED, AREA_SAMPLES), float(value))
             return hlps
         except ParameterError as e:
             raise InputError(str(e)) from None
