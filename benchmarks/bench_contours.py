@@ -54,7 +54,7 @@ def _setup(case: str, name: str, w: int, h: int):
     if case == "trace_scene":
         return lambda: mi_npr.contours.trace_scene(scene)
     if case == "id_buffer":
-        from mi_npr.render import pixel_rays
+        from mi_npr.raycast import pixel_rays
 
         sensor, table = scene.sensors()[0], mi_npr.object_table(scene)
 

@@ -63,7 +63,8 @@ def set_variant(name: str | None = None) -> str:
     """Activate a Mitsuba variant (default ``$MI_NPR_VARIANT`` or ``llvm_ad_rgb``) and register
     mi-npr's plugins for it. Returns the variant's name.
 
-    Scalar variants (``scalar_rgb``) and ``cuda_ad_rgb`` (where a GPU is present) work too.
+    JIT variants only (``llvm_*``, ``cuda_*`` where a GPU is present): a scalar variant can be
+    activated, but mi-npr's plugins and functions then raise a one-line error.
     """
     name = name or os.environ.get("MI_NPR_VARIANT") or DEFAULT_VARIANT
     if name not in mi.variants():

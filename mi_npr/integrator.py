@@ -31,15 +31,15 @@ from . import layers as L
 from .errors import ParameterError
 from .gbuffer import GBuffer
 from .params import Param, read_props
-from .render import _headlight, render_gbuffer, trace
+from .raycast import require_jit
+from .render import _headlight, channels, render_gbuffer
 from .scene import object_table, sensor_of
+from .session import SceneSession, check_spp
 
 
 def pack(gb: GBuffer, names: Sequence[str]) -> mi.TensorXf:
     """The layers ``names`` of ``gb`` interleaved into one float32 (H, W, C) tensor."""
     h, w = gb.shape
-    if not dr.is_jit_v(mi.Float):
-        return mi.TensorXf(np.stack([gb[k].astype(np.float32) for k in names], axis=-1))
     return _interleave(_planar([gb[k] for k in names]), len(names), h, w)
 
 
@@ -78,14 +78,14 @@ def develop_into_film(film: mi.Film, gb: GBuffer, aovs: Sequence[str]) -> mi.Ten
     ``film.bitmap()`` and ``film.write()`` hold the same channels (an ``rgba`` film adds ``A``
     after ``B``: 1 where the pixel-centre ray hits).
 
-    Films other than an RGB(A) ``hdrfilm`` (mono and spectral variants), and scalar variants,
-    are left as the nested integrator left them. The film's copy is one more gather from the
-    same planar buffer, which Dr.Jit runs when the film is read.
+    Films other than an RGB(A) ``hdrfilm`` (mono and spectral variants) are left as the nested
+    integrator left them. The film's copy is one more gather from the same planar buffer,
+    which Dr.Jit runs when the film is read.
     """
     names = [*L.RGB, *aovs]
     base = film.prepare(list(aovs)) - len(aovs)  # R G B W, or R G B A W
     rgb_film = mi.is_rgb and base in (4, 5) and film.class_name() == "HDRFilm"
-    if not (dr.is_jit_v(mi.Float) and rgb_film):
+    if not rgb_film:
         return pack(gb, names)
     h, w = gb.shape
     alpha = [(gb[L.OBJECT_ID] > 0).astype(np.float32)] if base == 5 else []
@@ -103,6 +103,7 @@ class NprIntegrator(mi.SamplingIntegrator):
     PARAMS: ClassVar[tuple[Param, ...]] = ()
 
     def __init__(self, props: mi.Properties) -> None:
+        require_jit(self.PLUGIN)
         super().__init__(props)
         nested = [props.get(k) for k in props.keys() if isinstance(props.get(k), mi.Integrator)]
         if len(nested) > 1:
@@ -123,16 +124,20 @@ class NprIntegrator(mi.SamplingIntegrator):
 
     def npr_gbuffer(
         self,
-        scene: mi.Scene,
+        scene: mi.Scene | SceneSession,
         sensor: int | mi.Sensor = 0,
         spp: int | None = None,
         seed: int = 0,
         source: str | None = None,
     ) -> GBuffer:
         """Everything this integrator produces, as a GBuffer (what ``mi_npr.render`` returns)."""
-        sensor = sensor_of(scene, sensor)
-        gb = render_gbuffer(scene, sensor, self.beauty, spp, seed, source)
-        gb = self.post(scene, sensor, gb)
+        if isinstance(scene, SceneSession):
+            session = scene
+        else:
+            require_jit(self.PLUGIN)
+            session = SceneSession(scene, sensor_of(scene, sensor), source, check_spp(spp))
+        gb = render_gbuffer(session, beauty=self.beauty, spp=spp, seed=seed)
+        gb = self.post(session.scene, session.sensor, gb)
         return gb.with_metadata(**{"mi_npr/integrator": self.PLUGIN})
 
     def render(
@@ -162,7 +167,7 @@ class NprIntegrator(mi.SamplingIntegrator):
         integrator (or the headlight shading) and the per-ray G-buffer channels (0 for layers
         that need the whole image, such as ``lines``)."""
         table = object_table(scene)
-        values = trace(scene, sensor_of(scene, 0), mi.Ray3f(ray), table, shade=False)
+        values = channels(scene, sensor_of(scene, 0), mi.Ray3f(ray), table, shade=False)
         if isinstance(self.beauty, mi.SamplingIntegrator):
             color, valid, _ = self.beauty.sample(scene, sampler, ray, medium, active)
         else:

@@ -163,12 +163,19 @@ def _auto_name(shape: mi.Shape) -> str:
 
 @dataclass
 class ObjectTable:
-    """Stable object ids for a scene's top-level shapes (1..N, sorted by name; 0 = background)."""
+    """Stable object ids for a scene's top-level shapes (1..N, sorted by name; 0 = background)
+    and stable material ids for their BSDFs (1..M, sorted by name; 0 = background).
+
+    A material is named by its BSDF's XML ``id``; an unnamed BSDF (declared inside its shape) is
+    named after the first shape that uses it (``<object>.bsdf``). Shapes that share one BSDF
+    object share its material id. Instances have no BSDF of their own: they get material 0.
+    """
 
     names: dict[int, str]
     shapes: dict[int, mi.Shape] = field(repr=False)
-    _lut: Any = field(default=None, repr=False)  # registry index -> id (JIT variants)
-    _by_ptr: dict[int, int] = field(default_factory=dict, repr=False)  # scalar variants
+    _lut: Any = field(default=None, repr=False)  # registry index -> id
+    materials: dict[int, str] = field(default_factory=dict)
+    _material_lut: Any = field(default=None, repr=False)  # object id -> material id
 
     def __len__(self) -> int:
         return len(self.names)
@@ -179,23 +186,50 @@ class ObjectTable:
                 return k
         raise KeyError(f"no object named {name!r}")
 
-    def lookup(self, si: mi.SurfaceInteraction3f) -> Any:
-        """Object id of each interaction: ``UInt32`` (0 where nothing was hit)."""
+    def lookup(self, si: Any) -> Any:
+        """Object id of each (preliminary) interaction: ``UInt32`` (0 where nothing was hit)."""
         valid = si.is_valid()
-        if dr.is_jit_v(mi.Float):
-            inst = dr.reinterpret_array(mi.UInt32, si.instance)
-            idx = dr.select(inst != 0, inst, dr.reinterpret_array(mi.UInt32, si.shape))
-            size = dr.width(self._lut)
-            ok = valid & (idx < size)
-            return dr.select(ok, dr.gather(mi.UInt32, self._lut, dr.minimum(idx, size - 1), ok), 0)
-        if not valid:
-            return 0
-        obj = si.instance if si.instance is not None else si.shape
-        return self._by_ptr.get(obj.ptr, 0) if obj is not None else 0
+        inst = dr.reinterpret_array(mi.UInt32, si.instance)
+        idx = dr.select(inst != 0, inst, dr.reinterpret_array(mi.UInt32, si.shape))
+        size = dr.width(self._lut)
+        ok = valid & (idx < size)
+        return dr.select(ok, dr.gather(mi.UInt32, self._lut, dr.minimum(idx, size - 1), ok), 0)
+
+    def material_of(self, object_id: Any) -> Any:
+        """Material id of each object id (``UInt32``; 0 for the background)."""
+        return dr.gather(mi.UInt32, self._material_lut, object_id)
+
+
+def _materials(names: dict[int, str], shapes: dict[int, mi.Shape]) -> tuple[dict, np.ndarray]:
+    keyed: dict[int, str] = {}  # BSDF pointer -> name
+    owner: dict[int, int] = {}  # object id -> BSDF pointer
+    for oid in sorted(shapes):
+        shape = shapes[oid]
+        bsdf = None if shape.class_name() == "Instance" else shape.bsdf()
+        if bsdf is None:
+            continue
+        owner[oid] = bsdf.ptr
+        if bsdf.ptr not in keyed:
+            keyed[bsdf.ptr] = bsdf.id() or f"{names[oid]}.bsdf"
+    seen: dict[str, int] = {}
+    for ptr in sorted(keyed, key=lambda p: keyed[p]):  # equal names: numbered in a stable way
+        n = keyed[ptr]
+        seen[n] = seen.get(n, -1) + 1
+        if seen[n]:
+            keyed[ptr] = f"{n}_{seen[n]}"
+    order = sorted(keyed, key=lambda p: keyed[p])
+    mid = {ptr: k + 1 for k, ptr in enumerate(order)}
+    lut = np.zeros(len(shapes) + 1, np.uint32)
+    for oid, ptr in owner.items():
+        lut[oid] = mid[ptr]
+    return {mid[p]: keyed[p] for p in order}, lut
 
 
 def object_table(scene: mi.Scene) -> ObjectTable:
     """Build the :class:`ObjectTable` of ``scene`` (see the module docstring for the rules)."""
+    from .raycast import require_jit
+
+    require_jit("the object table")
     shapes = list(scene.shapes())
     names = []
     for s in shapes:
@@ -217,12 +251,11 @@ def object_table(scene: mi.Scene) -> ObjectTable:
     ids = np.zeros(len(shapes), dtype=np.uint32)
     for k, i in enumerate(order):
         ids[i] = k + 1
-    if dr.is_jit_v(mi.Float):
-        reg = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()).numpy(), np.uint32)
-        lut = np.zeros(int(reg.max()) + 1 if reg.size else 1, dtype=np.uint32)
-        lut[reg] = ids
-        return ObjectTable(table, by_shape, mi.UInt32(lut))
-    return ObjectTable(table, by_shape, None, {s.ptr: int(ids[i]) for i, s in enumerate(shapes)})
+    reg = np.asarray(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()).numpy(), np.uint32)
+    lut = np.zeros(int(reg.max()) + 1 if reg.size else 1, dtype=np.uint32)
+    lut[reg] = ids
+    materials, mat_lut = _materials(table, by_shape)
+    return ObjectTable(table, by_shape, mi.UInt32(lut), materials, mi.UInt32(mat_lut))
 
 
 def describe_objects(table: Mapping[int, str]) -> str:

@@ -81,9 +81,10 @@ def test05_bad_parameters_are_clear_errors(write_scene, integrator, message):
 
 def test06_plugins_follow_variant_changes(write_scene):
     path = write_scene(BALL, width=6, height=4)
-    mi_npr.mi.set_variant("scalar_rgb")  # a plain Mitsuba call: the callback registers
+    mi_npr.mi.set_variant("llvm_ad_rgb")
+    mi_npr.mi.set_variant("llvm_ad_mono")  # a plain Mitsuba call: the callback registers
     gb = mi_npr.render(path)
-    assert gb.metadata["mi_npr/variant"] == "scalar_rgb"
+    assert gb.metadata["mi_npr/variant"] == "llvm_ad_mono"
     mi_npr.mi.set_variant("llvm_ad_rgb")
     assert isinstance(mi_npr.load_scene(path).integrator(), mi_npr.mi.SamplingIntegrator)
     with pytest.raises(mi_npr.ParameterError, match="not available"):

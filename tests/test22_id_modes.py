@@ -10,7 +10,7 @@ from scipy.sparse.csgraph import connected_components
 import mi_npr
 from mi_npr.contours import id_map, mode_ids, trace
 from mi_npr.meshes import box, face_components, merge, uv_sphere, weld, write_ply
-from mi_npr.render import pixel_rays
+from mi_npr.raycast import pixel_rays
 
 from .helpers import SCENES
 

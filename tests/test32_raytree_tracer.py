@@ -9,9 +9,9 @@ import pytest
 
 import mi_npr
 from mi_npr import layers as L
+from mi_npr.raycast import pixel_rays
 from mi_npr.raytree import light_table, raytree_layers, signature, signatures, trace_trees
 from mi_npr.raytree.signature import format_signature
-from mi_npr.render import pixel_rays
 
 from .test30_raytree_signature import tree_hash_ref
 
@@ -84,12 +84,30 @@ def _visible_ref(mi, scene, si, ray_d, obj, lt, table) -> list[int]:
     return words
 
 
+class _NamedTable:
+    """The reference's own object numbering in scalar_rgb (mi-npr's ObjectTable is JIT-only):
+    every shape by its XML id, numbered like the given id -> name table."""
+
+    def __init__(self, scene, names):
+        by_name = {v: k for k, v in names.items()}
+        self.names = dict(names)
+        self.shapes = {by_name[s.id()]: s for s in scene.shapes()}
+        self._ptr = {s.ptr: k for k, s in self.shapes.items()}
+
+    def lookup(self, si):
+        if not si.is_valid():
+            return 0
+        obj = si.instance if si.instance is not None else si.shape
+        return self._ptr.get(obj.ptr, 0)
+
+
 def reference_trees(path, xs, ys, max_depth) -> list[dict]:
     """Trees of the rays through film positions (xs, ys), one ray at a time, recursively."""
+    names = mi_npr.object_table(mi_npr.load_scene(path)).names  # ids to compare with
     mi_npr.set_variant("scalar_rgb")
     mi = mi_npr.mi
     scene = mi_npr.load_scene(path)
-    table = mi_npr.object_table(scene)
+    table = _NamedTable(scene, names)
     lt = light_table(scene, table)
     sensor = scene.sensors()[0]
 

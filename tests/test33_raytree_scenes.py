@@ -10,8 +10,8 @@ import pytest
 
 import mi_npr
 from mi_npr import layers as L
+from mi_npr.raycast import pixel_rays
 from mi_npr.raytree import raytree_layers
-from mi_npr.render import pixel_rays
 
 LAMP_AT_EYE = '<emitter type="point" id="lamp"><point name="position" x="0" y="0" z="0"/></emitter>'
 

@@ -208,7 +208,8 @@ def test07_bad_input(write_scene, ply):
     with pytest.raises(mi_npr.ParameterError, match="finite"):
         areas(scene, [[np.nan, 0, 4]], (0, 0, 0), 40.0, (4, 4))
     mi_npr.set_variant("scalar_rgb")
-    scalar = mi_npr.load_scene(write_scene(MIXED.format(ply=ply), name="s.xml"))
+    xml = write_scene(MIXED.format(ply=ply), name="s.xml", integrator='<integrator type="path"/>')
+    scalar = mi_npr.load_scene(xml)
     with pytest.raises(mi_npr.ParameterError, match="JIT variant"):
         areas(scalar, [[0, 0, 4]], (0, 0, 0), 40.0, (4, 4))
     with pytest.raises(mi_npr.ParameterError, match="JIT variant"):

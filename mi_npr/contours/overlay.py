@@ -96,18 +96,19 @@ def render_contours(
     one, like :func:`mi_npr.render`); ``defines`` and the other keyword arguments fill the XML's
     ``<default>``s.
     """
-    from ..render import prepare, render
+    from ..render import render
     from ..scene import merge_defines
+    from ..session import SceneSession
 
-    loaded, spp, source = prepare(scene, spp, merge_defines(defines, more))
-    integrator = loaded.integrator()
+    session = SceneSession.open(scene, sensor=sensor, spp=spp, defines=merge_defines(defines, more))
+    integrator = session.scene.integrator()
     xml = getattr(integrator, "params", {}) if _plugin(integrator) == "npr_contours" else {}
-    gb = render(loaded, sensor=sensor, spp=spp, seed=seed)
-    if source is not None:
-        gb = gb.with_metadata(**{"mi_npr/scene": source})
+    gb = render(session.scene, sensor=sensor, spp=session.spp, seed=seed)
+    if session.source is not None:
+        gb = gb.with_metadata(**{"mi_npr/scene": session.source})
     return overlay(
         gb,
-        loaded,
+        session.scene,
         method=method or xml.get("method", "border"),
         id_mode=id_mode or xml.get("id_mode", "shape"),
         color=color if color is not None else xml.get("color", RED),

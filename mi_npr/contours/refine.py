@@ -40,9 +40,9 @@ the guard, 150 of 410 contours were missed (every one a whole small sphere) with
 cast; with it, none, with 12.3%. The tests check the scenes in ``scenes_xml/`` (every ``id_mode``)
 and random sphere scenes for equality with buffer mode; the notebook counts the rays.
 
-Every ray is the pixel-centre ray of the G-buffer pass (:func:`mi_npr.render.pixel_rays`, same
-intersection, same :meth:`~mi_npr.scene.ObjectTable.lookup`), so the ids equal the ``object_id``
-layer's and each pixel's id is cast at most once (a cache of known pixels).
+Every ray is the pixel-centre ray of the G-buffer pass, cast by :func:`mi_npr.raycast.cast`
+(same rays, same intersection, same id lookup), so the ids equal the ``object_id`` layer's and
+each pixel's id is cast at most once (a cache of known pixels).
 """
 
 from __future__ import annotations
@@ -57,9 +57,10 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from ..errors import ParameterError, SceneError, one_line
-from ..render import _LOCK, pixel_rays
-from ..scene import camera_of, load_scene, merge_defines, sensor_of
+from ..errors import ParameterError
+from ..raycast import cast, film_size, pixel_centres, pixel_rays
+from ..scene import camera_of, merge_defines
+from ..session import SceneSession
 from .contour import Contour
 from .idmode import IdMap, check_id_mode, id_map
 from .trace import OUTSIDE, Grid, check_method, contours_from_grid, distinct
@@ -139,22 +140,14 @@ class RayCaster(Caster):
     """Casts the G-buffer pass's pixel-centre rays (same intersection, same id lookup)."""
 
     def __init__(self, scene: mi.Scene, sensor: mi.Sensor, ids: IdMap):
-        w, h = (int(v) for v in sensor.film().crop_size())
+        w, h = film_size(sensor)
         super().__init__(h, w)
         self.scene, self.sensor, self.ids = scene, sensor, ids
 
     def compute(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        fx = x.astype(np.float32) + 0.5
-        fy = y.astype(np.float32) + 0.5
-        if dr.is_jit_v(mi.Float):
-            ray = pixel_rays(self.sensor, mi.Float(fx), mi.Float(fy))
-            pi = self.scene.ray_intersect_preliminary(ray, coherent=True)
-            return np.asarray(self.ids.lookup(pi).numpy(), np.uint32).reshape(-1)
-        out = np.empty(len(x), np.uint32)  # scalar variants: one ray at a time
-        for i in range(len(x)):
-            ray = pixel_rays(self.sensor, float(fx[i]), float(fy[i]))
-            out[i] = int(self.ids.lookup(self.scene.ray_intersect_preliminary(ray)))
-        return out
+        ray = pixel_rays(self.sensor, *pixel_centres(x, y))
+        hits = cast(self.scene, ray, self.ids.table)
+        return np.asarray(hits.ids(self.ids).numpy(), np.uint32).reshape(-1)
 
     def guard_boxes(self) -> np.ndarray | None:
         """Pixel boxes of the shapes (and components) from their projected bounding boxes."""
@@ -167,18 +160,10 @@ class RayCaster(Caster):
         depth = (corners - cam.origin) @ cam.forward
         flat = corners.reshape(-1, 3).astype(np.float32)
         try:
-            if dr.is_jit_v(mi.Float):
-                it = dr.zeros(mi.Interaction3f)
-                it.p = mi.Point3f(*(mi.Float(flat[:, i]) for i in range(3)))
-                ds, _ = self.sensor.sample_direction(it, mi.Point2f(0.5, 0.5))
-                uv = np.asarray(ds.uv.numpy(), np.float64).T
-            else:
-                uv = np.empty((len(flat), 2))
-                for i, p in enumerate(flat):
-                    it = dr.zeros(mi.Interaction3f)
-                    it.p = mi.Point3f(*(float(v) for v in p))
-                    ds, _ = self.sensor.sample_direction(it, mi.Point2f(0.5, 0.5))
-                    uv[i] = [float(ds.uv[0]), float(ds.uv[1])]
+            it = dr.zeros(mi.Interaction3f)
+            it.p = mi.Point3f(*(mi.Float(flat[:, i]) for i in range(3)))
+            ds, _ = self.sensor.sample_direction(it, mi.Point2f(0.5, 0.5))
+            uv = np.asarray(ds.uv.numpy(), np.float64).T
         except Exception:  # no sample_direction (orthographic): parallel rays are affine
             uv = _affine_projection(self.sensor, corners.reshape(-1, 3))
             if uv is None:
@@ -194,7 +179,7 @@ def _affine_projection(sensor: mi.Sensor, points: np.ndarray) -> np.ndarray | No
     along ``d``, so ``p - o = u a + v b + t d`` is a 3x3 solve. ``None`` for any other sensor."""
 
     def ray(x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
-        r = pixel_rays(sensor, mi.Float(x) if dr.is_jit_v(mi.Float) else x, y)
+        r = pixel_rays(sensor, mi.Float(x), mi.Float(y))
         o = np.asarray([float(dr.ravel(c)[0]) for c in (r.o.x, r.o.y, r.o.z)])
         d = np.asarray([float(dr.ravel(c)[0]) for c in (r.d.x, r.d.y, r.d.z)])
         return o, d
@@ -324,20 +309,13 @@ def trace_scene(
     check_method(method)
     check_id_mode(id_mode)
     check_macro(macro)
-    source = os.fspath(scene) if isinstance(scene, (str, os.PathLike)) else None
     t0 = time.perf_counter()
-    loaded = load_scene(scene, merge_defines(defines, more))
-    sensor = sensor_of(loaded, sensor)
-    with _LOCK:
-        try:
-            ids = id_map(loaded, id_mode)
-            caster = RayCaster(loaded, sensor, ids)
-            setup = time.perf_counter() - t0
-            contours, stats = run(caster, ids.names, method=method, macro=macro, guard=guard)
-        except (ParameterError, SceneError):
-            raise
-        except RuntimeError as e:
-            raise SceneError(f"{source or 'scene'}: ray casting failed: {one_line(e)}") from None
+    session = SceneSession.open(scene, sensor=sensor, defines=merge_defines(defines, more))
+    with session.step("ray casting"):
+        ids = id_map(session.scene, id_mode, session.objects)
+        caster = RayCaster(session.scene, session.sensor, ids)
+        setup = time.perf_counter() - t0
+        contours, stats = run(caster, ids.names, method=method, macro=macro, guard=guard)
     stats.times = {"setup": setup, **stats.times}
     return contours, stats
 

@@ -1,9 +1,10 @@
 """The ray-tree pass of an image: ``raytree.hi``/``raytree.lo`` at pixel centres, the four edge
 layers from the corner grid, and the overlay of the edge classes on the beauty.
 
-One wavefront traces both ray sets: the W x H pixel-centre rays (the G-buffer's rays,
-:func:`mi_npr.render.pixel_rays` at ``(x + 0.5, y + 0.5)``) and the (W + 1) x (H + 1) corner rays
-(at integer film positions ``(x, y)``, ``0 <= x <= W``, ``0 <= y <= H``).
+One wavefront traces both ray sets: the W x H pixel-centre rays (the G-buffer's rays) and the
+(W + 1) x (H + 1) corner rays (at integer film positions ``(x, y)``, ``0 <= x <= W``,
+``0 <= y <= H``), both from :func:`mi_npr.raycast.film_grid` and
+:func:`~mi_npr.raycast.pixel_rays`.
 """
 
 from __future__ import annotations
@@ -18,10 +19,11 @@ import numpy as np
 
 from .. import layers as L
 from ..compose import with_overlays
-from ..errors import ParameterError, SceneError, one_line
 from ..gbuffer import GBuffer
-from ..render import _LOCK, pixel_rays, prepare, render_gbuffer
+from ..raycast import film_grid, film_size, pixel_rays, require_jit
+from ..render import render_gbuffer
 from ..scene import merge_defines, object_table, sensor_of
+from ..session import SceneSession
 from .edges import as_image, classify_edges
 from .lights import light_table
 from .tracer import Trees, check_max_depth, trace_trees
@@ -65,21 +67,14 @@ def raytree_layers(
     """``raytree.hi``, ``raytree.lo`` (uint32) and the four ``edges.*`` layers (float32 0/1)
     of ``sensor``'s image, each an (H, W) numpy array."""
     max_depth = check_max_depth(max_depth)
-    if not dr.is_jit_v(mi.Float):
-        raise ParameterError(
-            f"ray trees need a JIT variant (llvm_ad_rgb, cuda_ad_rgb), not {mi.variant()!r}"
-        )
+    require_jit("ray trees")
     s = sensor_of(scene, sensor)
-    w, h = (int(v) for v in s.film().crop_size())
+    w, h = film_size(s)
     objects = object_table(scene)
     lights = light_table(scene, objects)
     n_px, n_c = w * h, (w + 1) * (h + 1)
-    i = dr.arange(mi.UInt32, n_px + n_c)
-    corner = i >= n_px
-    k = dr.select(corner, i - n_px, i)
-    cols = dr.select(corner, w + 1, w)
-    x = mi.Float(k % cols) + dr.select(corner, 0.0, 0.5)
-    y = mi.Float(k // cols) + dr.select(corner, 0.0, 0.5)
+    (cx, cy), (kx, ky) = film_grid(w, h), film_grid(w, h, corners=True)
+    x, y = dr.concat([cx, kx]), dr.concat([cy, ky])
     trees = trace_trees(scene, pixel_rays(s, x, y), objects, lights, max_depth)
     dr.eval(trees.hash, trees.root_obj, trees.root_lights, trees.levels)
     hi, lo = _slice(trees, 0, n_px).hi_lo()
@@ -97,17 +92,15 @@ def overlay(gb: GBuffer) -> GBuffer:
 
 
 def add_raytree(
-    scene: mi.Scene, sensor: int | mi.Sensor, gb: GBuffer, max_depth: int = 3
+    scene: mi.Scene | SceneSession, sensor: int | mi.Sensor, gb: GBuffer, max_depth: int = 3
 ) -> GBuffer:
     """``gb`` plus the ray-tree layers, with the edge classes composited onto ``R G B``."""
-    with _LOCK:
-        try:
-            new = raytree_layers(scene, sensor, max_depth)
-        except (ParameterError, SceneError):
-            raise
-        except RuntimeError as e:
-            src = gb.metadata.get("mi_npr/scene", "scene")
-            raise SceneError(f"{src}: ray-tree pass failed: {one_line(e)}") from None
+    session = scene if isinstance(scene, SceneSession) else None
+    if session is None:
+        src = gb.metadata.get("mi_npr/scene")
+        session = SceneSession(scene, sensor_of(scene, sensor), src)
+    with session.step("ray-tree pass"):
+        new = raytree_layers(session.scene, session.sensor, max_depth)
     out = overlay(gb.with_layers(new))
     return out.with_metadata(**{"mi_npr/raytree_max_depth": max_depth})
 
@@ -128,12 +121,11 @@ def render(
     ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3. ``defines`` and
     the other keyword arguments fill the XML's ``<default>``s, as in :func:`mi_npr.render`.
     """
-    loaded, spp, source = prepare(scene, spp, merge_defines(defines, more))
-    integ = loaded.integrator()
+    session = SceneSession.open(scene, sensor=sensor, spp=spp, defines=merge_defines(defines, more))
+    integ = session.scene.integrator()
     is_npr = hasattr(integ, "npr_gbuffer")
-    max_depth = check_max_depth(scene_max_depth(loaded) if max_depth is None else max_depth)
+    max_depth = check_max_depth(scene_max_depth(session.scene) if max_depth is None else max_depth)
     beauty = integ.beauty if is_npr else integ
-    s = sensor_of(loaded, sensor)
-    gb = render_gbuffer(loaded, s, beauty, spp, seed, source)
-    gb = add_raytree(loaded, s, gb, max_depth)
+    gb = render_gbuffer(session, beauty=beauty, spp=session.spp, seed=seed)
+    gb = add_raytree(session, session.sensor, gb, max_depth)
     return gb.with_metadata(**{"mi_npr/integrator": "npr_raytree"})

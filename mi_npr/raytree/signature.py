@@ -38,8 +38,8 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError
-from ..render import _LOCK, pixel_rays
-from ..scene import load_scene, object_table, sensor_of
+from ..raycast import film_grid, film_size, pixel_rays
+from ..session import RENDER_LOCK, SceneSession
 from .lights import light_table
 from .render import scene_max_depth
 from .tracer import Nodes, trace_trees
@@ -90,15 +90,13 @@ def signatures_of(nodes: Nodes, n: int) -> list[str]:
     return [format_signature(t) for t in trees]
 
 
-def _trace_pixels(
-    scene: mi.Scene, sensor: Any, x: np.ndarray, y: np.ndarray, max_depth: int | None
-) -> list[str]:
+def _trace_pixels(session: SceneSession, x: Any, y: Any, max_depth: int | None) -> list[str]:
+    scene = session.scene
     depth = scene_max_depth(scene) if max_depth is None else max_depth
-    with _LOCK:
-        objects = object_table(scene)
+    with RENDER_LOCK:
+        objects = session.objects
         lights = light_table(scene, objects)
-        f = mi.Float
-        rays = pixel_rays(sensor, f(x.astype(np.float32)), f(y.astype(np.float32)))
+        rays = pixel_rays(session.sensor, mi.Float(x), mi.Float(y))
         trees = trace_trees(scene, rays, objects, lights, depth, record=True)
     assert trees.nodes is not None
     return signatures_of(trees.nodes, dr.width(rays.o))
@@ -122,13 +120,12 @@ def signature(
 
     (object D, lit by light 1, whose mirror reflection hits B, lit by lights 1 and 2).
     """
-    scene = load_scene(scene)
-    s = sensor_of(scene, sensor)
-    w, h = (int(v) for v in s.film().crop_size())
+    session = SceneSession.open(scene, sensor=sensor)
+    w, h = film_size(session.sensor)
     for name, v, hi in (("x", x, w), ("y", y, h)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v < hi:
             raise ParameterError(f"{name} = {v!r}: must be an integer pixel index in 0..{hi - 1}")
-    return _trace_pixels(scene, s, np.array([x + 0.5]), np.array([y + 0.5]), max_depth)[0]
+    return _trace_pixels(session, [x + 0.5], [y + 0.5], max_depth)[0]
 
 
 def signatures(
@@ -140,10 +137,8 @@ def signatures(
 ) -> np.ndarray:
     """The signatures of every pixel centre, an (H, W) array of ``str``; with ``corners``, of
     every pixel corner, (H + 1, W + 1) (the rays the edge layers compare)."""
-    scene = load_scene(scene)
-    s = sensor_of(scene, sensor)
-    w, h = (int(v) for v in s.film().crop_size())
-    off, cw, ch = (0.0, w + 1, h + 1) if corners else (0.5, w, h)
-    yy, xx = np.mgrid[0:ch, 0:cw]
-    out = _trace_pixels(scene, s, xx.ravel() + off, yy.ravel() + off, max_depth)
+    session = SceneSession.open(scene, sensor=sensor)
+    w, h = film_size(session.sensor)
+    cw, ch = (w + 1, h + 1) if corners else (w, h)
+    out = _trace_pixels(session, *film_grid(w, h, corners), max_depth)
     return np.array(out, dtype=object).reshape(ch, cw)

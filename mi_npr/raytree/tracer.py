@@ -41,6 +41,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError
+from ..raycast import cast, require_jit
 from ..scene import ObjectTable
 from .lights import LightTable, visible_lights
 
@@ -155,9 +156,8 @@ def _level(
 ) -> tuple[Any, ...]:
     """One wavefront level: hits, node keys, and the children's rays (unless ``lobes`` is
     ``None``: the last level)."""
-    si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=coherent)
-    valid = si.is_valid()
-    obj = objects.lookup(si)
+    hits = cast(scene, ray, objects, detail="full", coherent=coherent)
+    si, valid, obj = hits.si, hits.valid, hits.object_id
     words = visible_lights(scene, si, ray.d, obj, lights, objects, valid)
     key = dr.select(valid, node_key(pos, obj, words), mi.UInt64(0))
     if lobes is None:
@@ -203,10 +203,7 @@ def trace_trees(
 
     With ``record``, every node is also returned (:class:`Nodes`) for signatures and tests.
     """
-    if not dr.is_jit_v(mi.Float):
-        raise ParameterError(
-            f"ray trees need a JIT variant (llvm_ad_rgb, cuda_ad_rgb), not {mi.variant()!r}"
-        )
+    require_jit("ray trees")
     max_depth = check_max_depth(max_depth)
     n = dr.width(rays.o)
     idx = dr.arange(mi.UInt32, n)  # the tree (ray) each wavefront item belongs to

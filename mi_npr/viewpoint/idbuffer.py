@@ -18,14 +18,13 @@ Mitsuba's ``lookat`` with the ``up`` vector of :func:`view_frame`. The ray of pi
 goes through its exact centre ``(x + 0.5, y + 0.5)``, like the G-buffer pass
 (:mod:`mi_npr.render`), so the ID buffer of a viewpoint equals the ``object_id`` / ``prim_id``
 layers of a Mitsuba ``perspective`` sensor at that pose (checked in the tests). The rays of V
-viewpoints (``V x width x height`` lanes) are built in Dr.Jit, intersected, and counted with one
-atomic scatter-add into a ``(V, n + 1)`` table: one kernel launch per batch, no Python loop over
-views.
+viewpoints (``V x width x height`` lanes) are built and cast by :mod:`mi_npr.raycast`
+(:func:`~mi_npr.raycast.pinhole_rays`, :func:`~mi_npr.raycast.cast`) and counted with one atomic
+scatter-add into a ``(V, n + 1)`` table: one kernel launch per batch, no Python loop over views.
 """
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -36,6 +35,8 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError, SceneError, one_line
+from ..raycast import cast, pinhole_rays
+from ..raycast import require_jit as _require_jit
 from ..scene import ObjectTable, object_table
 from .measures import Topology, vertex_curvature
 
@@ -118,10 +119,7 @@ def _group_children(scene: mi.Scene) -> dict[str, list[Any]]:
 
 def require_jit() -> None:
     """The batched ID buffers are Dr.Jit kernels: scalar variants cannot run them."""
-    if not dr.is_jit_v(mi.Float):
-        raise ParameterError(
-            f"viewpoint quality needs a JIT variant (llvm_ad_rgb, cuda_ad_rgb), not {mi.variant()}"
-        )
+    _require_jit("viewpoint quality")
 
 
 def polygons(scene: mi.Scene) -> Polygons:
@@ -237,11 +235,6 @@ def image_size(res: int, aspect: float) -> tuple[int, int]:
     return max(1, round(res * aspect)), int(res)
 
 
-def _vec3(a: np.ndarray) -> Any:
-    a = np.ascontiguousarray(a, np.float32)
-    return mi.Vector3f(a[:, 0], a[:, 1], a[:, 2])
-
-
 def _count_batch(
     scene: mi.Scene,
     polys: Polygons,
@@ -251,23 +244,9 @@ def _count_batch(
     size: tuple[int, int],
 ) -> np.ndarray:
     V = len(origin)
-    w, h = size
-    tx = math.tan(math.radians(fov) / 2.0)
-    ty = tx * h / w
-    npix = w * h
-    idx = dr.arange(mi.UInt32, V * npix)
-    view = idx // npix
-    pix = idx - view * npix
-    x = mi.Float(pix % w) + 0.5
-    y = mi.Float(pix // w) + 0.5
-    f, left, up = (dr.gather(mi.Vector3f, _vec3(a), view) for a in frame)
-    o = dr.gather(mi.Point3f, mi.Point3f(_vec3(origin)), view)
-    dx = (1.0 - 2.0 * x / w) * tx
-    dy = (1.0 - 2.0 * y / h) * ty
-    d = dr.normalize(left * dx + up * dy + f)
-    si = scene.ray_intersect(mi.Ray3f(o, d), ray_flags=mi.RayFlags.Minimal, coherent=True)
-    oid = polys.table.lookup(si)  # the ids of the object_id layer
-    key = view * (polys.n + 1) + polys.index(si, oid)
+    rays, view = pinhole_rays(origin, frame, fov, size)
+    hits = cast(scene, rays, polys.table, detail="minimal")
+    key = view * (polys.n + 1) + polys.index(hits.si, hits.object_id)
     counts = dr.zeros(mi.UInt32, V * (polys.n + 1))
     dr.scatter_add(counts, mi.UInt32(1), key)
     dr.eval(counts)

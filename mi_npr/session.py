@@ -1,0 +1,110 @@
+"""One scene session: a loaded scene, its sensor, the render lock and the error mapping.
+
+Every entry point that takes ``scene`` as an XML path or a loaded ``mi.Scene`` (``render``,
+``trace_scene``, the ray-tree ``render``, best view, the contour overlay) opens a
+:class:`SceneSession` instead of repeating the same block:
+
+- **loading** with ``defines`` and keyword arguments filling the XML's ``<default>``\\ s
+  (:func:`mi_npr.scene.load_scene`); ``spp`` (an int or a command-line string) also fills the
+  XML's ``spp`` default when the file declares one, and always sets the beauty's sample count;
+- **the sensor** (:func:`mi_npr.scene.sensor_of`: index or object, checked film size);
+- **the object table**, built once per session (:func:`mi_npr.scene.object_table`);
+- **the render lock**: a loaded Mitsuba scene must not be rendered from two threads at once, so
+  every pass over a scene runs under :data:`RENDER_LOCK`;
+- **error mapping**: ``with session.step("ray casting"):`` holds the lock and turns Mitsuba's
+  ``RuntimeError`` into one :class:`~mi_npr.errors.SceneError` line naming the scene file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import mitsuba as mi
+
+from .errors import ParameterError, SceneError, one_line
+from .raycast import require_jit
+from .scene import (
+    ObjectTable,
+    declared_defaults,
+    load_scene,
+    merge_defines,
+    object_table,
+    sensor_of,
+)
+
+#: Mitsuba scenes must not be rendered from two threads at once.
+RENDER_LOCK = threading.RLock()
+
+
+def check_spp(spp: int | str | None) -> int | None:
+    """``spp`` as an int >= 1 (a command-line string is parsed), or ``None``."""
+    if spp is None:
+        return None
+    if isinstance(spp, str):
+        try:
+            spp = int(spp)
+        except ValueError:
+            raise ParameterError(f"spp = {spp!r}: must be a positive integer") from None
+    if not isinstance(spp, int) or isinstance(spp, bool) or spp < 1:
+        raise ParameterError(f"spp = {spp!r}: must be a positive integer")
+    return spp
+
+
+@dataclass
+class SceneSession:
+    """A loaded scene with the sensor it is seen from (see the module docstring)."""
+
+    scene: mi.Scene
+    sensor: mi.Sensor
+    source: str | None = None  # the XML path, when loaded from a file
+    spp: int | None = None  # the beauty's sample count asked for (None: the sampler's)
+    _table: ObjectTable | None = field(default=None, repr=False)
+
+    @classmethod
+    def open(
+        cls,
+        scene: str | os.PathLike[str] | mi.Scene,
+        *,
+        sensor: int | mi.Sensor = 0,
+        spp: int | str | None = None,
+        defines: Mapping[str, Any] | None = None,
+        **more: Any,
+    ) -> SceneSession:
+        """Load ``scene`` (or take it as it is) and pick ``sensor``."""
+        require_jit()
+        defines = merge_defines(defines, more)
+        source = os.fspath(scene) if isinstance(scene, (str, os.PathLike)) else None
+        spp = check_spp(spp)
+        if spp is not None and source is not None and "spp" in declared_defaults(source):
+            defines["spp"] = spp
+        loaded = load_scene(scene, defines)
+        return cls(loaded, sensor_of(loaded, sensor), source, spp)
+
+    @property
+    def name(self) -> str:
+        """How messages name the scene: its file, or ``scene``."""
+        return self.source or "scene"
+
+    @property
+    def objects(self) -> ObjectTable:
+        """The scene's object table (built once)."""
+        if self._table is None:
+            self._table = object_table(self.scene)
+        return self._table
+
+    @contextlib.contextmanager
+    def step(self, what: str) -> Iterator[None]:
+        """Run a pass over the scene under the render lock; Mitsuba's errors become one
+        :class:`~mi_npr.errors.SceneError` line: ``<scene>: <what> failed: <message>``."""
+        with RENDER_LOCK:
+            try:
+                yield
+            except (ParameterError, SceneError):
+                raise
+            except RuntimeError as e:
+                raise SceneError(f"{self.name}: {what} failed: {one_line(e)}") from None
