@@ -266,8 +266,10 @@ def _report(results: list) -> int:
 
 
 def _cmd_best_view(args: argparse.Namespace) -> int:
-    from .viewpoint import write_best_view
+    from .viewpoint import plots_missing, write_best_view
 
+    if why := plots_missing():
+        print(f"{PROG}: note: {why}: the quality sphere picture is skipped", file=sys.stderr)
     best, outputs = write_best_view(
         args.scene,
         args.output,

@@ -123,3 +123,31 @@ def test07_truncated_or_malformed_text_files_name_the_file(tmp_path):
         (tmp_path / name).write_text(text)
         with pytest.raises(InputError, match=rf"{name.replace('.', '[.]')}: malformed PLY"):
             read_ply(tmp_path / name)
+
+
+def test08_mixed_polygons_in_face_order_and_big_endian(tmp_path):
+    # A triangle, a pentagon, a two-vertex "face" (no triangle) and a quad, each fanned around its
+    # first vertex, in file order (written out by hand).
+    faces = [[4, 0, 1], [0, 1, 2, 3, 4], [1, 2], [5, 3, 2, 1]]
+    expected = [[4, 0, 1], [0, 1, 2], [0, 2, 3], [0, 3, 4], [5, 3, 2], [5, 2, 1]]
+    V = np.arange(18, dtype=">f8").reshape(6, 3)
+    head = (
+        "ply\nformat binary_big_endian 1.0\nelement vertex 6\n"
+        "property double x\nproperty double y\nproperty double z\nproperty double nx\n"
+        f"element face {len(faces)}\nproperty list uchar short vertex_index\nend_header\n"
+    )
+    vrec = np.concatenate([V, V[:, :1] * 10], axis=1).astype(">f8").tobytes()
+    frec = b"".join(bytes([len(f)]) + np.asarray(f, ">i2").tobytes() for f in faces)
+    p = tmp_path / "be.ply"
+    p.write_bytes(head.encode() + vrec + frec)
+    V2, F, extra = read_ply(p)
+    np.testing.assert_array_equal(V2, V.astype(np.float32))
+    np.testing.assert_array_equal(F, expected)
+    np.testing.assert_array_equal(extra["nx"], V[:, 0] * 10)
+    # The same faces as ASCII.
+    text = "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\n"
+    text += "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n"
+    text += "".join(" ".join(map(str, v)) + "\n" for v in V.tolist())
+    text += "".join(f"{len(f)} {' '.join(map(str, f))}\n" for f in faces)
+    (tmp_path / "a.ply").write_text(text)
+    np.testing.assert_array_equal(read_ply(tmp_path / "a.ply")[1], expected)

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 import mi_npr
 from mi_npr.contours import id_map, mode_ids, trace
@@ -15,28 +13,37 @@ from mi_npr.raycast import pixel_rays
 from .helpers import SCENES
 
 
-def scipy_components(F: np.ndarray, V: np.ndarray) -> np.ndarray:
-    """Oracle: faces connected through shared (welded) vertices, numbered by lowest face."""
-    _, inv = np.unique(V, axis=0, return_inverse=True)
-    Fw = inv.reshape(-1)[F]
-    m, n = len(F), int(Fw.max()) + 1
-    rows = np.repeat(np.arange(m), 3)
-    g = coo_matrix((np.ones(3 * m), (rows, m + Fw.ravel())), shape=(m + n, m + n))
-    _, lab = connected_components(g, directed=False)
-    face_lab = lab[:m]
-    _, first = np.unique(face_lab, return_index=True)
-    order = {face_lab[f]: i for i, f in enumerate(sorted(first))}
-    return np.array([order[v] for v in face_lab])
+def union_find_components(F: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """Oracle (plain Python, independent of scipy): faces joined through shared positions by a
+    union-find over the faces, numbered by lowest face."""
+    parent = list(range(len(F)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    owner: dict[tuple, int] = {}  # position -> first face that uses it
+    for f, tri in enumerate(F):
+        for v in tri:
+            key = tuple(V[v].tolist())
+            if key in owner:
+                parent[root(f)] = root(owner[key])
+            else:
+                owner[key] = f
+    order: dict[int, int] = {}
+    return np.array([order.setdefault(root(f), len(order)) for f in range(len(F))])
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test01_components_match_scipy(seed):
+def test01_components_match_union_find(seed):
     rng = np.random.default_rng(seed)
     parts = [uv_sphere(int(rng.integers(3, 9)), int(rng.integers(2, 6))) for _ in range(3)]
     parts += [box(0.2, center=rng.uniform(-1, 1, 3)) for _ in range(int(rng.integers(0, 3)))]
     V, F = merge(*parts)
     F = F[rng.permutation(len(F))]
-    np.testing.assert_array_equal(face_components(F, V), scipy_components(F, V))
+    np.testing.assert_array_equal(face_components(F, V), union_find_components(F, V))
     # Duplicated seam vertices (same position, new index) do not split a component.
     dup = np.concatenate([V, V])
     F2 = F.copy()

@@ -27,19 +27,19 @@ direction does not change when every term is scaled by the same factor), so it s
 from every blob where ``F`` itself underflows; it is undefined (returned as 0) only where the
 gradient truly vanishes, such as the centre of a lone blob.
 
-**Building HLPs** (:func:`build_hlps`): k-means on the leaf centres (k-means++ seeding from
-``seed``; ``k`` given, or chosen from a target HLP radius as the number of occupied grid cells of
-side ``2 * radius``); each cluster becomes a blob with its mean as centre and the eigenvectors of
-its covariance as axes; radii ``r_j = sqrt(5 * lambda_j)`` (a solid ellipsoid of radius ``R`` has
-variance ``R^2 / 5`` along each axis), floored at the mean leaf length and at ``0.35 *`` the
-cluster's largest radius so flat clusters do not become pancakes; weights 1. Overlapping Gaussian
-blobs inflate the union (where ``n`` equal blobs overlap, the surface lies at ``q = 1 + 2 ln n``),
-so finally all radii are scaled by one common factor, found by bisection, such that the fraction
-``inside`` (default 0.9) of the leaf centres lies inside the surface: the surface is the crown's
-envelope. Ambiguity resolved:
-the thesis builds HLPs by hand or from the plant's structure; the issue asks for clustering, and
-k-means on leaf positions is the simplest deterministic choice. Empty clusters are dropped, so
-``len(hlps)`` can be below ``k`` when leaves coincide.
+**Building HLPs** (:func:`build_hlps`): k-means on the leaf centres (scipy's ``kmeans2``, k-means++
+seeding from ``seed``; ``k`` given, or chosen from a target HLP radius as the number of occupied
+grid cells of side ``2 * radius``); each cluster becomes a blob with its mean as centre and the
+eigenvectors of its covariance as axes; radii ``r_j = sqrt(5 * lambda_j)`` (a solid ellipsoid of
+radius ``R`` has variance ``R^2 / 5`` along each axis), floored at the mean leaf length and at
+``0.35 *`` the cluster's largest radius so flat clusters do not become pancakes; weights 1.
+Overlapping Gaussian blobs inflate the union (where ``n`` equal blobs overlap, the surface lies at
+``q = 1 + 2 ln n``), so finally all radii are scaled by one common factor, found by bisection, such
+that the fraction ``inside`` (default 0.9) of the leaf centres lies inside the surface: the surface
+is the crown's envelope. Ambiguity resolved: the thesis builds HLPs by hand or from the plant's
+structure; the issue asks for clustering, and k-means on leaf positions is the simplest
+deterministic choice. Empty clusters are dropped, so ``len(hlps)`` can be below ``k`` when leaves
+coincide.
 
 **Data.** An :class:`HLPSet` is plain numpy data: inspect it, edit it (``dataclasses.replace``),
 save/load it as JSON (:meth:`HLPSet.save`, :meth:`HLPSet.load`)::
@@ -55,6 +55,7 @@ import hashlib
 import json
 import math
 import os
+import warnings
 from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
@@ -63,6 +64,7 @@ from typing import Any
 import drjit as dr
 import mitsuba as mi
 import numpy as np
+from scipy.cluster.vq import kmeans2, vq
 
 from ..errors import InputError, ParameterError
 from ..io._atomic import atomic_output
@@ -402,34 +404,15 @@ class HLPSet:
 def kmeans(
     X: np.ndarray, k: int, seed: int = 0, iterations: int = 30
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Lloyd's k-means with k-means++ seeding: ``(centres (k', 3), labels (n,))``; empty clusters
-    are dropped, so ``k' <= k``. Deterministic for a given ``seed``."""
+    """k-means with k-means++ seeding (scipy's ``kmeans2``): ``(centres (k', 3), labels (n,))``,
+    each point labelled with its nearest centre; empty clusters are dropped, so ``k' <= k``
+    (``k`` is also capped at the number of distinct points). Deterministic for a given ``seed``."""
     X = np.asarray(X, np.float64)
-    n = len(X)
-    k = max(1, min(int(k), n))
-    rng = np.random.default_rng(seed)
-    idx = [int(rng.integers(n))]
-    d2 = np.sum((X - X[idx[0]]) ** 2, axis=1)
-    for _ in range(1, k):
-        total = d2.sum()
-        j = int(rng.choice(n, p=d2 / total)) if total > 0 else int(rng.integers(n))
-        idx.append(j)
-        d2 = np.minimum(d2, np.sum((X - X[j]) ** 2, axis=1))
-    C = X[idx].copy()
-    labels = np.full(n, -1, np.int64)
-    for _ in range(iterations):
-        new = np.empty(n, np.int64)
-        cc = np.sum(C * C, axis=1)
-        for s in range(0, n, _CHUNK):
-            x = X[s : s + _CHUNK]
-            new[s : s + _CHUNK] = np.argmin(cc[None] - 2 * x @ C.T, axis=1)
-        if np.array_equal(new, labels):
-            break
-        labels = new
-        counts = np.bincount(labels, minlength=len(C))
-        sums = np.stack([np.bincount(labels, X[:, i], len(C)) for i in range(3)], axis=1)
-        filled = counts > 0
-        C[filled] = sums[filled] / counts[filled, None]
+    k = max(1, min(int(k), len(np.unique(X, axis=0))))
+    with warnings.catch_warnings():  # an emptied cluster keeps its centre; dropped below
+        warnings.filterwarnings("ignore", "One of the clusters is empty", UserWarning)
+        C, _ = kmeans2(X, k, iter=iterations, minit="++", rng=np.random.default_rng(seed))
+    labels, _ = vq(X, C)
     used = np.unique(labels)
     remap = np.full(len(C), -1, np.int64)
     remap[used] = np.arange(len(used))

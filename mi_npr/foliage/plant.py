@@ -238,7 +238,11 @@ def _leaves_from_faces(V: np.ndarray, F: np.ndarray, label: np.ndarray, name: st
 def read_obj(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """``(V, F, N)`` of a Wavefront OBJ: ``v`` positions, ``f`` polygons (fanned into triangles,
     negative indices allowed, ``v/vt/vn`` forms read by their first index), and the ``vn``
-    normals of the vertices when the file has one ``vn`` per ``v`` and no faces (a point set)."""
+    normals of the vertices when the file has one ``vn`` per ``v`` and no faces (a point set).
+
+    Not Mitsuba's ``obj`` loader: (3.9.1) it rejects negative indices, loads a point set as an
+    empty mesh, and splits a vertex that faces use with different ``vt``/``vn``, which would cut
+    a leaf into separate components."""
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{p}: no such file")

@@ -7,7 +7,7 @@
 - :mod:`~mi_npr.viewpoint.search`: :func:`quality`, :func:`best_view` (the 8 spherical
   triangles and their recursive subdivision), :func:`quality_map`;
 - :mod:`~mi_npr.viewpoint.camera`: the best view as a Mitsuba ``<sensor>`` and the picture of
-  the viewing sphere coloured by quality;
+  the viewing sphere coloured by quality (matplotlib, the ``plots`` extra);
 - :mod:`~mi_npr.viewpoint.outputs`: the files ``mi-npr best-view`` writes.
 
 >>> bv = mi_npr.viewpoint.best_view("scenes_xml/scene4.xml", "entropy")  # doctest: +SKIP
@@ -16,7 +16,7 @@
 
 from __future__ import annotations
 
-from .camera import sensor_xml, sphere_image
+from .camera import plots_missing, sensor_xml, sphere_image
 from .idbuffer import areas, polygons, view_frame
 from .measures import MEASURES, curvature, entropy, pb, vertex_curvature
 from .outputs import write_best_view
@@ -31,6 +31,7 @@ __all__ = [
     "entropy",
     "fibonacci_sphere",
     "pb",
+    "plots_missing",
     "polygons",
     "qualities",
     "quality",

@@ -9,10 +9,12 @@ root and rejects a ``version`` attribute on a nested ``<sensor>``: so the file l
 (``mi.load_file`` gives a scene with that one sensor), ``<include filename="..."/>`` adds its
 sensor to a scene, and the ``<sensor>`` element can be pasted into a scene in place of its own.
 
-:func:`sphere_image` draws the quality over the viewing sphere with numpy (Pillow only writes
-the labels): two orthographic views of the sphere, the hemisphere facing ``front`` and the
-opposite one, coloured by quality (viridis), with the three great circles that bound the 8
-spherical triangles of Fig. 1, the evaluated viewpoints as dots and the best one as a red ring.
+:func:`sphere_image` draws the quality over the viewing sphere with matplotlib (the ``plots``
+extra): two orthographic views of the sphere, the hemisphere facing ``front`` and the opposite
+one, coloured by quality (viridis, with a colour bar), with the three great circles that bound
+the 8 spherical triangles of Fig. 1, the evaluated viewpoints as dots and the best one as a red
+ring. The quality between the rated directions is interpolated on the sphere (a von Mises-Fisher
+kernel as wide as their spacing).
 """
 
 from __future__ import annotations
@@ -133,22 +135,17 @@ def sensor_xml(best: BestView, scene: mi.Scene, sensor: int | mi.Sensor = 0) -> 
 
 # -- the viewing sphere as a picture ----------------------------------------------------------
 
-# viridis at 9 evenly spaced stops (matplotlib's table), interpolated linearly.
-_VIRIDIS = np.array(
-    [
-        [68, 1, 84], [71, 44, 122], [59, 81, 139], [44, 113, 142], [33, 144, 141],
-        [39, 173, 129], [92, 200, 99], [170, 220, 50], [253, 231, 37],
-    ],
-    dtype=np.float64,
-)  # fmt: skip
+#: How to get matplotlib, which draws the quality sphere (the ``plots`` extra).
+PLOTS_HINT = "pip install 'mi-npr[plots]'"
 
 
-def colormap(t: np.ndarray) -> np.ndarray:
-    """Viridis colours (float RGB in [0, 255]) for values ``t`` in [0, 1]."""
-    t = np.clip(np.nan_to_num(np.asarray(t, np.float64)), 0.0, 1.0) * (len(_VIRIDIS) - 1)
-    i = np.minimum(t.astype(np.int64), len(_VIRIDIS) - 2)
-    f = (t - i)[..., None]
-    return _VIRIDIS[i] * (1 - f) + _VIRIDIS[i + 1] * f
+def plots_missing() -> str | None:
+    """``None`` where matplotlib can be imported, else a one-line note saying how to get it."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return f"matplotlib is not installed ({PLOTS_HINT})"
+    return None
 
 
 def _interpolate(points: np.ndarray, directions: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -171,6 +168,11 @@ def _disc_frame(front: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return -left, up  # image right, image up
 
 
+def _unit(v: np.ndarray) -> np.ndarray:
+    v = np.asarray(v, np.float64).reshape(-1, 3)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
 def sphere_image(
     directions: np.ndarray,
     qualities: np.ndarray,
@@ -187,63 +189,62 @@ def sphere_image(
     :func:`~mi_npr.viewpoint.quality_map`); ``best`` (3,) and ``evaluated`` (E, 3) are
     directions from the centre (or viewpoints relative to the target); ``front`` is the direction
     the left disc faces (default +z), ``labels`` the captions of the two discs. Each disc is
-    ``size`` pixels wide.
+    ``size`` pixels wide. Needs matplotlib (the ``plots`` extra): an ``ImportError`` saying so
+    where it is missing.
     """
-    from PIL import Image, ImageDraw
+    if why := plots_missing():
+        raise ImportError(f"sphere_image: {why}")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Circle
 
-    d = np.asarray(directions, np.float64).reshape(-1, 3)
-    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    d = _unit(directions)
     q = np.asarray(qualities, np.float64).reshape(-1)
     lo, hi = (float(q.min()), float(q.max())) if q.size else (0.0, 1.0)
-    span = hi - lo if hi > lo else 1.0
-    front = np.array([0.0, 0.0, 1.0]) if front is None else np.asarray(front, np.float64)
-    front = front / np.linalg.norm(front)
-    m, top, bar = 12, 22 if title else 8, 44
-    W, H = 2 * size + 3 * m, top + size + 18 + bar
-    img = np.full((H, W, 3), 255.0)
+    hi = hi if hi > lo else lo + 1.0
+    front = _unit([0.0, 0.0, 1.0] if front is None else front)[0]
+    m, top, below = 12, 24 if title else 8, 64  # margins in pixels: sides, title, labels + bar
+    W, H = 2 * size + 3 * m, top + size + below
+    fig = Figure(figsize=(W / 100, H / 100), dpi=100)
+    FigureCanvasAgg(fig)
     yy, xx = np.mgrid[0:size, 0:size]
-    u = (xx + 0.5) / size * 2 - 1
-    v = 1 - (yy + 0.5) / size * 2
+    u, v = (xx + 0.5) / size * 2 - 1, 1 - (yy + 0.5) / size * 2
     inside = u * u + v * v < 1.0
-    zz = np.sqrt(np.clip(1 - u * u - v * v, 0, 1))
-    marks: list[tuple[np.ndarray, int, tuple[int, int, int]]] = []
+    t = np.linspace(0, 2 * np.pi, 361)[:, None]
+    E = np.eye(3)  # the great circles x = 0, y = 0, z = 0:
+    circles = [np.cos(t) * E[(i + 1) % 3] + np.sin(t) * E[(i + 2) % 3] for i in range(3)]
+    marks = []  # (directions, scatter style)
     if evaluated is not None:
-        for e in np.asarray(evaluated, np.float64).reshape(-1, 3):
-            marks.append((e, 2, (255, 255, 255)))
+        marks.append((_unit(evaluated), dict(s=14, c="white", edgecolors="black", linewidths=0.6)))
     if best is not None:
-        marks.append((np.asarray(best, np.float64), 5, (230, 30, 30)))
+        marks.append((_unit(best), dict(s=90, facecolors="none", edgecolors="red", linewidths=2)))
+    image = None
     for k, fr in enumerate((front, -front)):
         right, up = _disc_frame(fr)
         if k == 1:
             right = -right  # seen from behind: the two discs join like a map
-        p = u[..., None] * right + v[..., None] * up + zz[..., None] * fr
-        p = p[inside]
-        col = colormap((_interpolate(p, d, q) - lo) / span) if d.size else np.full((len(p), 3), 200)
-        near_edge = np.min(np.abs(p), axis=1) < 1.2 / size  # the great circles x, y, z = 0
-        col[near_edge] *= 0.35
-        shade = 0.75 + 0.25 * (p @ fr)  # a little limb darkening, so it reads as a sphere
-        disc = np.full((size, size, 3), 255.0)
-        disc[inside] = col * shade[:, None]
-        for mk, r, rgb in marks:
-            mk = mk / np.linalg.norm(mk)
-            if mk @ fr <= 0:
-                continue
-            cx, cy = (mk @ right + 1) / 2 * size, (1 - mk @ up) / 2 * size
-            dist = np.hypot(xx + 0.5 - cx, yy + 0.5 - cy)
-            disc[dist <= r + 1.0] = 0.0
-            disc[dist <= r] = rgb
-        x0 = m + k * (size + m)
-        img[top : top + size, x0 : x0 + size] = disc
-    # colour bar
-    by, bx, bw = top + size + 18, m, W - 2 * m
-    img[by : by + 12, bx : bx + bw] = colormap(np.linspace(0, 1, bw))[None]
-    out = Image.fromarray(np.clip(img + 0.5, 0, 255).astype(np.uint8))
-    draw = ImageDraw.Draw(out)
+        ax = fig.add_axes(((m + k * (size + m)) / W, below / H, size / W, size / H))
+        ax.set_axis_off()
+        ax.set(xlim=(-1, 1), ylim=(-1, 1), aspect="equal")
+        values = np.full((size, size), np.nan)
+        if d.size:
+            p = u[inside, None] * right + v[inside, None] * up
+            p += np.sqrt(np.clip(1 - u[inside] ** 2 - v[inside] ** 2, 0, 1))[:, None] * fr
+            values[inside] = _interpolate(p, d, q)
+        image = ax.imshow(values, cmap="viridis", vmin=lo, vmax=hi, extent=(-1, 1, -1, 1),
+                          interpolation="nearest")  # fmt: skip
+        ax.add_patch(Circle((0, 0), 1, fill=False, lw=1, color="0.2"))
+        for c in circles:
+            x, y = c @ right, c @ up
+            hidden = c @ fr < 0
+            ax.plot(np.where(hidden, np.nan, x), np.where(hidden, np.nan, y), lw=0.7, color="0.2")
+        for pts, style in marks:
+            pts = pts[pts @ fr > 0]
+            ax.scatter(pts @ right, pts @ up, zorder=3, **style)
+        ax.text(0.5, -0.02, labels[k], transform=ax.transAxes, ha="center", va="top", fontsize=8)
+    cax = fig.add_axes((m / W, 22 / H, (W - 2 * m) / W, 10 / H))
+    fig.colorbar(image, cax=cax, orientation="horizontal").ax.tick_params(labelsize=7)
     if title:
-        draw.text((m, 5), title, fill=(0, 0, 0))
-    draw.text((m, top + size + 3), labels[0], fill=(0, 0, 0))
-    draw.text((2 * m + size, top + size + 3), labels[1], fill=(0, 0, 0))
-    draw.text((bx, by + 15), f"{lo:.4g}", fill=(0, 0, 0))
-    label = f"{hi:.4g}"
-    draw.text((bx + bw - 6 * len(label), by + 15), label, fill=(0, 0, 0))
-    return np.asarray(out)
+        fig.text(m / W, 1 - 6 / H, title, va="top", fontsize=8)
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()

@@ -4,7 +4,8 @@ The files, in ``outdir``: ``<stem>_best_view.xml`` (the best view as a Mitsuba s
 :func:`~mi_npr.viewpoint.sensor_xml`), ``<stem>_best_view.png`` (the scene rendered from that
 sensor, read back from the written file, with the scene's own integrator: what a user gets who
 puts the sensor in the scene) and ``<stem>_quality_sphere.png`` (the viewing sphere coloured by
-quality, :func:`~mi_npr.viewpoint.sphere_image`; the left disc faces the scene's own camera).
+quality, :func:`~mi_npr.viewpoint.sphere_image`; the left disc faces the scene's own camera;
+skipped where matplotlib, the ``plots`` extra, is missing).
 Every file goes through :mod:`mi_npr.io` (temporary name, then rename).
 """
 
@@ -21,7 +22,7 @@ from .. import io
 from ..errors import SceneError
 from ..render import render
 from ..scene import camera_of, load_scene, merge_defines, sensor_of
-from .camera import sensor_xml, sphere_image
+from .camera import plots_missing, sensor_xml, sphere_image
 from .measures import check_measure
 from .search import BestView, check_shapes, sample_sphere, search, viewing
 
@@ -47,7 +48,8 @@ def write_best_view(
 
     ``ignore`` names objects whose pixels count as background (:func:`best_view`).
     ``defines`` fill the XML's ``<default>``s (the written film is the film they give). Returns
-    the :class:`BestView` and the written paths by kind (``sensor``, ``render``, ``sphere``).
+    the :class:`BestView` and the written paths by kind (``sensor``, ``render``, ``sphere``;
+    no ``sphere`` where :func:`~mi_npr.viewpoint.plots_missing` says why).
     """
     check_measure(measure)
     scene = load_scene(scene_path, merge_defines(defines, more))
@@ -64,6 +66,8 @@ def write_best_view(
     sensor = load_scene(out["sensor"]).sensors()[0]
     gb = render(scene, sensor=sensor, seed=seed)
     out["render"] = io.write_png(d / f"{stem}_best_view.png", gb.beauty)
+    if plots_missing():  # the picture needs matplotlib (the plots extra): skipped
+        return best, out
     dirs, q = sample_sphere(scene, view, measure, samples)
     front = camera_of(sensor_of(scene)).origin - view.target if scene.sensors() else None
     if front is not None and not np.any(front):
