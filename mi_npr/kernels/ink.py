@@ -2,15 +2,16 @@
 
 Layout: a 2-D ``(H, W)`` line image in [0, 1] in (numpy or Dr.Jit), a ``drjit.llvm.ad.TensorXf``
 of the same shape out (see :mod:`mi_npr.kernels.depth_lines`). Pixels outside the image count
-as no ink (zero padding).
+as no ink (zero padding) for the width, and not at all for the density.
 
 - :func:`widen_lines` -- every line ``width`` pixels wide. A 1-px line is dilated with a soft
   disc: pixel ``p`` gets ``max_q lines(q) * clip((width + 1) / 2 - |p - q|, 0, 1)``, so a line
   ``width`` px wide crosses ``width`` pixels' worth of ink (an axis-aligned 1-px line widened
   to 2 px gets half-ink neighbours on both sides, to 3 px full ones, to 4 px full ones plus
   half ones). Below 1 px the line keeps its pixels and is lightened: ``lines * width``.
-- :func:`ink_density` -- the mean ink over a ``size`` x ``size`` window centred on each pixel,
-  the measure of "dense geometry" that the chain's ``max_density`` thins (thesis section 4.3:
+- :func:`ink_density` -- the mean ink over a ``size`` x ``size`` window centred on each pixel
+  (over the part of the window inside the image, so borders are not seen as sparse), the
+  measure of "dense geometry" that the chain's ``max_density`` thins (thesis section 4.3:
   detail is left out where it would fill in).
 """
 
@@ -81,25 +82,31 @@ def widen_lines(lines: Any, width: float) -> TensorXf:
 
 
 def box_mean(p: Field, size: int) -> Float:
-    """Mean of ``p`` over the ``size`` x ``size`` window (zero outside), in two separable
-    passes; evaluates the row pass and returns the column pass lazily."""
+    """Mean of ``p`` over the part of the ``size`` x ``size`` window inside the image, in two
+    separable passes; evaluates the row pass and returns the column pass lazily."""
     r = size // 2
-    rows = None
+    rows, count_x = None, None
     for dx in range(-r, r + 1):
-        v = p.at(0, dx, None if dx == 0 else p.grid.inside(0, dx))
+        inside = None if dx == 0 else p.grid.inside(0, dx)
+        v = p.at(0, dx, inside)
+        c = 1.0 if inside is None else dr.select(inside, 1.0, 0.0)
         rows = v if rows is None else rows + v
+        count_x = c if count_x is None else count_x + c
     dr.eval(rows)
     f = Field(rows, p.grid)
-    total = None
+    total, count_y = None, None
     for dy in range(-r, r + 1):
-        v = f.at(dy, 0, None if dy == 0 else p.grid.inside(dy, 0))
+        inside = None if dy == 0 else p.grid.inside(dy, 0)
+        v = f.at(dy, 0, inside)
+        c = 1.0 if inside is None else dr.select(inside, 1.0, 0.0)
         total = v if total is None else total + v
-    return total * (1.0 / (size * size))
+        count_y = c if count_y is None else count_y + c
+    return total / (count_x * count_y)
 
 
 def ink_density(lines: Any, size: int = DENSITY_WINDOW) -> TensorXf:
     """The mean ink of ``lines`` over a ``size`` x ``size`` window (odd ``size`` >= 1) around
-    each pixel; outside the image counts as no ink.
+    each pixel, over the window's pixels inside the image.
 
     >>> import numpy as np
     >>> float(np.asarray(ink_density(np.ones((9, 9)), 3))[4, 4])
