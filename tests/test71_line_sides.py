@@ -227,3 +227,19 @@ def test09_no_layers_no_edges_unless_asked():
     assert not np.asarray(K.lines(z_only)).any()
     with pytest.raises(mi_npr.ParameterError, match=r"no 'N\.X' layer"):
         K.lines({**z_only, L.OBJECT_ID: np.ones((4, 4), np.uint32)}, crease_angle=100.0)
+
+
+def test10_crease_side_follows_the_gbuffers_camera():
+    """The crease goes to the face turned towards the camera: the G-buffer's camera axis decides
+    (a camera turned around, looking along -z, sees the other face as the front one)."""
+    h, w = 6, 8
+    theta = np.where(np.arange(w) < 4, 10.0, 60.0)[None, :].repeat(h, 0)
+    N = normals_from_angles(theta, (h, w))
+    layers = gbuffer(np.full((h, w), 5.0, np.float32), np.ones((h, w), np.uint32), N)
+    front = mi_npr.Camera(np.eye(4), (w, h), 40.0)
+    back = mi_npr.Camera(np.diag([-1.0, 1.0, -1.0, 1.0]), (w, h), 40.0)
+    a = np.asarray(K.lines(mi_npr.GBuffer(layers, camera=front), id_edges=False))
+    b = np.asarray(K.lines(mi_npr.GBuffer(layers, camera=back), id_edges=False))
+    assert np.all(a[:, 3] == 1) and a.sum() == h  # theta 10 faces +z more: column 3
+    assert np.all(b[:, 4] == 1) and b.sum() == h  # seen from behind: the other face, column 4
+    np.testing.assert_array_equal(a, np.asarray(K.lines(layers, id_edges=False)))  # +z default

@@ -54,6 +54,13 @@ edges of several kinds on one boundary land on the same pixels and never double 
 Then ``max_density`` thins (:func:`~mi_npr.kernels.ink.ink_density`), ``line_width`` widens
 every line alike (:func:`~mi_npr.kernels.ink.widen_lines`) and ``bright_fade`` fades.
 
+**Anti-aliasing** (the ``npr_lines`` plugin's ``line_aa``, :mod:`mi_npr.antialias`) runs this
+chain unchanged on an ``n``-times supersampled G-buffer with ``line_width * n`` and box-filters
+the result: eq. 5.1's gray levels then also carry *sub-pixel position* (a contour crossing a
+third of a pixel inks it at a third); eq. 5.2 removes fragments shorter than 3 sub-pixels, not
+3 pixels; the selective dilation (eqs. 5.3-5.4) fills holes of ``dilation_size`` sub-pixels;
+``max_density``'s window is 9 sub-pixels wide.
+
 A G-buffer without ``object_id`` (or ``N.X N.Y N.Z``) gets no ID edges (creases) unless they
 were asked for explicitly, which is then an error naming the missing layer: depth alone is
 enough for the defaults.
