@@ -99,7 +99,9 @@ G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id`` (then ``leaf_i
 ``leaf_edges`` is on), and last the untouched beauty ``beauty.R beauty.G beauty.B``: the layout
 of every mi-npr integrator that draws on the beauty (its own layers, the G-buffer, the raw
 beauty). The sensor's film holds the same channels afterwards. ``mi-npr render`` writes every
-layer to the EXR and the composited beauty to the PNG.
+layer to the EXR, the composited beauty to the PNG and the drawing alone (black ink on white, or
+``--line-color`` on ``--paper``) to ``<stem>_lines.png``; ``--line-width``, ``--line-aa`` and
+``--line-color`` override this plugin's parameters (:meth:`NprLinesIntegrator.set_params`).
 
 XML::
 
