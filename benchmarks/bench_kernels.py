@@ -2,8 +2,9 @@
 
 The chain (what ``npr_lines`` runs, with ID edges on): depth normalisation over the frame's finite
 range -> selective dilation 3x3 (eqs. 5.3-5.4) -> signed depth contours (eq. 5.1) -> isolated-pixel
-removal (eq. 5.2) -> max with object-ID edges. Ours is ``mi_npr.kernels.lines(gb, id_edges=True)``
-(Dr.Jit, LLVM). The anchor is the same chain with OpenCV where it has the operation
+removal (eq. 5.2) -> max with 1-px object-ID edges. Ours is
+``mi_npr.kernels.lines(gb, id_edges=True)`` (Dr.Jit, LLVM). The anchor is the same chain with
+OpenCV where it has the operation
 (``cv2.minMaxLoc``, ``cv2.blur``, ``cv2.dilate``, ``cv2.erode``, ``cv2.boxFilter``) and numpy for
 the rest (the neighbour count of eq. 5.4 has no OpenCV primitive). Both start from the same numpy
 ``Z`` and ``object_id`` layers: ``scene3.xml``'s G-buffer rendered at 640x480 and 3840x2160.
@@ -47,7 +48,6 @@ def opencv_lines(Z: np.ndarray, ids: np.ndarray, c=40.0, t=1.0, t0=0.5) -> np.nd
     import cv2
 
     box = np.ones((3, 3), np.uint8)
-    cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
     rep = cv2.BORDER_REPLICATE
     finite = np.isfinite(Z)
     lo, hi, _, _ = cv2.minMaxLoc(np.where(finite, Z, 0).astype(np.float32), finite.view(np.uint8))
@@ -70,9 +70,15 @@ def opencv_lines(Z: np.ndarray, ids: np.ndarray, c=40.0, t=1.0, t0=0.5) -> np.nd
     above = (p > t0).astype(np.float32)
     count = cv2.boxFilter(above, -1, (3, 3), normalize=False, borderType=cv2.BORDER_CONSTANT)
     p = np.where(count >= 3, p, 0.0)
-    # Object-ID edges: a 4-neighbour differs <=> the cross's max and min differ.
-    f = ids.astype(np.float32)
-    edge = cv2.dilate(f, cross, borderType=rep) != cv2.erode(f, cross, borderType=rep)
+    # Object-ID edges, 1 px (issue 19): a 4-neighbour of another id, on this pixel's side: the
+    # near side of a step above t / c in the pre-filtered depth, else the larger id.
+    step = np.float32(t / c)
+    f, Dp = np.pad(ids, 1, mode="edge"), np.pad(D, 1, mode="edge")
+    edge = np.zeros((h, w), bool)
+    for dy, dx in ((-1, 0), (0, -1), (0, 1), (1, 0)):
+        q_id = f[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w]
+        dz = Dp[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w] - D
+        edge |= (q_id != ids) & ((dz > step) | ((np.abs(dz) <= step) & (ids > q_id)))
     return np.where(edge, np.float32(1.0), p).astype(np.float32)
 
 

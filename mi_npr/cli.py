@@ -61,6 +61,31 @@ def _non_negative(text: str) -> int:
     return n
 
 
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        v = -1.0
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive number")
+    return v
+
+
+def _rgb(text: str) -> tuple[float, float, float]:
+    """``R,G,B`` (linear, finite, >= 0) or one gray value."""
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) == 1:
+        vals = vals * 3
+    if len(vals) != 3 or not all(0 <= v < float("inf") for v in vals):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a colour: give R,G,B (linear, >= 0), e.g. 0,0,0 or 1,0.9,0.8"
+        )
+    return (vals[0], vals[1], vals[2])
+
+
 def _define_argument(cmd: argparse.ArgumentParser) -> None:
     cmd.add_argument(
         "-D",
@@ -95,6 +120,30 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("render", help="render scenes to multi-layer EXR + PNG")
     _scene_batch_arguments(r)
+    r.add_argument(
+        "--line-width",
+        type=_positive_float,
+        metavar="PX",
+        help="npr_lines: width of every line in pixels (default: the scene's, else 1)",
+    )
+    r.add_argument(
+        "--line-aa",
+        type=_positive,
+        metavar="N",
+        help="npr_lines: N x N rays per pixel, anti-aliased lines (default: the scene's, else 3)",
+    )
+    r.add_argument(
+        "--line-color",
+        type=_rgb,
+        metavar="R,G,B",
+        help="npr_lines: line colour (linear RGB) on the beauty and in <stem>_lines.png (black)",
+    )
+    r.add_argument(
+        "--paper",
+        type=_rgb,
+        metavar="R,G,B",
+        help="paper colour of <stem>_lines.png (linear RGB, default white 1,1,1)",
+    )
 
     c = sub.add_parser(
         "contours", help="apparent contours in red over the beauty render: PNG, SVG and EXR"
@@ -203,12 +252,16 @@ def _cmd_render(args: argparse.Namespace) -> int:
     import mi_npr
 
     from .batch import run_jobs
+    from .drawing import render_lines
 
     outdir, options = _scene_batch(args)
+    lines = {"line_width": args.line_width, "line_aa": args.line_aa, "line_color": args.line_color}
 
     def job(scene: str) -> list[Path]:
-        gb = mi_npr.render(scene, seed=args.seed, **options)
-        return mi_npr.io.write_outputs(gb, outdir, Path(scene).stem)
+        gb = render_lines(scene, seed=args.seed, **lines, **options)
+        return mi_npr.io.write_outputs(
+            gb, outdir, Path(scene).stem, line_color=args.line_color, paper=args.paper
+        )
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
     return _report(results)

@@ -14,7 +14,7 @@ from .test11_normalize_depth import ref_normalize
 from .test12_depth_contours import ref_contours
 from .test13_remove_isolated import ref_remove_isolated
 from .test14_selective_dilation import ref_selective_dilation
-from .test15_edges import ref_id_edges, ref_normal_edges
+from .test71_line_sides import ref_crease_edges, ref_id_edges_1px
 
 RNG = np.random.default_rng(16)
 SIZES = [(1, 1), (1, 9), (9, 1), (7, 5), (64, 48)]
@@ -23,18 +23,19 @@ DEFAULTS = {p.name: p.default for p in K.LINES_PARAMS}
 
 def ref_lines(gb, **params):
     """The chain written with the references: normalise -> selective dilation -> eq. 5.1 ->
-    eq. 5.2 -> max with ID and normal edges."""
+    eq. 5.2 -> max with 1-px ID and crease edges (sides by the dilated depth, step t / c)."""
     p = {**DEFAULTS, **params}
     D = ref_normalize(gb[L.Z], p["near"], p["far"]).astype(np.float32)
     D = ref_selective_dilation(D, p["dilation_size"], p["dilation_iterations"])
     ink = ref_contours(D.astype(np.float32), p["c"], p["t"])
     if p["remove_isolated"]:
         ink = ref_remove_isolated(ink, p["t0"])
+    step = np.float32(p["t"] / p["c"]) if p["c"] > 0 else np.inf
     if p["id_edges"]:
-        ink = np.maximum(ink, ref_id_edges(gb[L.OBJECT_ID]))
-    if p["normal_edges"] > 0:
+        ink = np.maximum(ink, ref_id_edges_1px(gb[L.OBJECT_ID], D, step))
+    if p["crease_angle"] > 0:
         n = np.stack([gb[k] for k in L.N], axis=-1)
-        ink = np.maximum(ink, ref_normal_edges(n, gb[L.OBJECT_ID], p["normal_edges"]))
+        ink = np.maximum(ink, ref_crease_edges(n, gb[L.OBJECT_ID], p["crease_angle"], D, step))
     return ink
 
 
@@ -48,11 +49,14 @@ def kernel_lines(gb, **params):
     if p["remove_isolated"]:
         ink = K.remove_isolated(ink, p["t0"])
     ink = np.asarray(ink)
+    step = p["t"] / p["c"] if p["c"] > 0 else np.inf
     if p["id_edges"]:
-        ink = np.maximum(ink, np.asarray(K.id_edges(gb[L.OBJECT_ID])))
-    if p["normal_edges"] > 0:
+        e = K.id_edges(gb[L.OBJECT_ID], 1, Z=D, step=step)
+        ink = np.maximum(ink, np.asarray(e))
+    if p["crease_angle"] > 0:
         n = np.stack([gb[k] for k in L.N], axis=-1)
-        ink = np.maximum(ink, np.asarray(K.normal_edges(n, gb[L.OBJECT_ID], p["normal_edges"])))
+        e = K.crease_edges(n, gb[L.OBJECT_ID], p["crease_angle"], Z=D, step=step)
+        ink = np.maximum(ink, np.asarray(e))
     return ink
 
 
@@ -74,12 +78,12 @@ def blocks(shape):
 
 
 CASES = [
-    {},
+    {},  # issue 19: ID edges and creases at 134 degrees by default
     {"dilation_iterations": 0, "remove_isolated": False},
     {"c": 5.0, "t": 0.5, "t0": 0.2, "dilation_size": 5, "dilation_iterations": 2},
-    {"id_edges": True},
-    {"normal_edges": 40.0, "near": 1.0, "far": 20.0},
-    {"id_edges": True, "normal_edges": 10.0, "remove_isolated": False, "far": 9.0},
+    {"id_edges": False, "crease_angle": 0.0},
+    {"crease_angle": 140.0, "near": 1.0, "far": 20.0, "id_edges": False},
+    {"id_edges": True, "crease_angle": 170.0, "remove_isolated": False, "far": 9.0, "c": 0.0},
 ]
 
 
@@ -111,9 +115,9 @@ def test04_accepts_a_gbuffer_and_nan_never_spreads():
     gb = blocks((32, 24))
     gb[L.Z][3, 4] = np.nan
     gbuf = mi_npr.GBuffer(gb)
-    out = np.asarray(K.lines(gbuf, id_edges=True, normal_edges=30.0))
+    out = np.asarray(K.lines(gbuf, id_edges=True, crease_angle=150.0))
     assert out.shape == (32, 24) and np.all(np.isfinite(out))
-    np.testing.assert_allclose(out, ref_lines(gb, id_edges=True, normal_edges=30.0), atol=1e-5)
+    np.testing.assert_allclose(out, ref_lines(gb, id_edges=True, crease_angle=150.0), atol=1e-5)
 
 
 @pytest.mark.parametrize(
@@ -125,7 +129,9 @@ def test04_accepts_a_gbuffer_and_nan_never_spreads():
         ({"dilation_size": 4}, "parameter 'dilation_size' = 4: must be an odd integer >= 3"),
         ({"dilation_size": 1}, "parameter 'dilation_size' = 1"),
         ({"dilation_iterations": -2}, "parameter 'dilation_iterations' = -2"),
-        ({"normal_edges": -5.0}, "parameter 'normal_edges' = -5.0: must lie in [0, 180)"),
+        ({"crease_angle": -5.0}, "parameter 'crease_angle' = -5.0: must lie in [0, 180]"),
+        ({"line_width": 0.0}, "parameter 'line_width' = 0.0: must lie in (0, 15]"),
+        ({"max_density": 1.5}, "parameter 'max_density' = 1.5: must lie in (0, 1]"),
         ({"near": 5.0, "far": 1.0}, "lines: near = 5.0, far = 1.0: near must be less than far"),
         ({"cc": 1.0}, "lines: unknown parameter 'cc'"),
         ({"remove_isolated": "maybe"}, "parameter 'remove_isolated' = 'maybe'"),
@@ -149,7 +155,7 @@ def test06_missing_or_mismatched_layers():
     with pytest.raises(mi_npr.ParameterError, match="no 'object_id' layer"):
         K.lines(z_only, id_edges=True)
     with pytest.raises(mi_npr.ParameterError, match=r"no 'N\.X' layer"):
-        K.lines({**z_only, L.OBJECT_ID: np.zeros((3, 3), np.uint32)}, normal_edges=20.0)
+        K.lines({**z_only, L.OBJECT_ID: np.zeros((3, 3), np.uint32)}, crease_angle=160.0)
     with pytest.raises(mi_npr.ParameterError, match="object_id: shape"):
         K.lines({L.Z: np.ones((3, 4)), L.OBJECT_ID: np.zeros((4, 3), np.uint32)}, id_edges=True)
 

@@ -8,6 +8,7 @@ import pytest
 import mi_npr
 from mi_npr import kernels as K
 from mi_npr import layers as L
+from mi_npr.antialias import antialiased_lines
 from mi_npr.compose import over
 
 mi = mi_npr.mi
@@ -43,8 +44,13 @@ def test02_mi_render_returns_composited_beauty_lines_then_gbuffer(write_scene):
     for i, name in enumerate(names):
         np.testing.assert_array_equal(a[..., i], gb[name].astype(np.float32), err_msg=name)
     ink = gb[L.LINES]
-    assert ink.max() == 1.0 and set(np.unique(gb.object_id[ink > 0])) == {1}  # on the ball
-    np.testing.assert_array_equal(ink, np.asarray(K.lines(gb)))  # the library's chain
+    # Anti-aliased by default (issue 19): gray levels, within a pixel of the ball's outline.
+    ball = gb.object_id == 1
+    near_ball = ball | np.roll(ball, 1, 0) | np.roll(ball, -1, 0)
+    near_ball |= np.roll(near_ball, 1, 1) | np.roll(near_ball, -1, 1)
+    assert ink.max() == 1.0 and np.all(near_ball[ink > 0]) and 0 < ink[ink > 0].min() < 0.5
+    expected = antialiased_lines(scene, scene.sensors()[0], gb, 3)  # the library's chain
+    np.testing.assert_array_equal(ink, expected)
     # Black lines over the raw beauty, which stays in beauty.R/G/B.
     np.testing.assert_allclose(gb.beauty, over(gb.stack(L.RAW_RGB), ink, (0, 0, 0)), atol=1e-6)
     assert np.all(gb.beauty[ink == 1.0] == 0.0)
@@ -60,8 +66,9 @@ def test03_parameters_reach_the_chain(write_scene):
         '<integer name="dilation_iterations" value="2"/>',
         '<boolean name="remove_isolated" value="false"/>',
         '<boolean name="id_edges" value="true"/>',
-        '<float name="normal_edges" value="25"/>',
+        '<float name="crease_angle" value="155"/>',
         '<rgb name="line_color" value="1, 0, 0"/>',
+        '<integer name="line_aa" value="1"/>',
         '<float name="near" value="1"/>',
         '<float name="far" value="30"/>',
     )
@@ -76,7 +83,7 @@ def test03_parameters_reach_the_chain(write_scene):
         dilation_iterations=2,
         remove_isolated=False,
         id_edges=True,
-        normal_edges=25.0,
+        crease_angle=155.0,
         near=1.0,
         far=30.0,
     )
@@ -88,10 +95,12 @@ def test03_parameters_reach_the_chain(write_scene):
 
 def test04_defaults_are_the_chains_defaults():
     integ = mi.load_dict({"type": "npr_lines"})
-    chain = [p.name for p in K.LINES_PARAMS]  # ... normal_edges, near, far
-    assert [p.name for p in integ.PARAMS] == [*chain[:-2], "line_color", *chain[-2:]]
+    chain = [p.name for p in K.LINES_PARAMS]  # ... line_width, bright_fade, near, far
+    own = ["line_color", "line_aa"]
+    assert [p.name for p in integ.PARAMS] == [*chain[:-2], *own, *chain[-2:]]
     defaults = {p.name: p.default for p in K.LINES_PARAMS}
-    assert {k: v for k, v in integ.params.items() if k != "line_color"} == defaults
+    assert {k: v for k, v in integ.params.items() if k not in own} == defaults
+    assert integ.params["line_aa"] == 3  # issue 19: chosen by measurement
     assert integ.params["line_color"] == (0.0, 0.0, 0.0)
 
 
@@ -105,11 +114,13 @@ def test04_defaults_are_the_chains_defaults():
         ('<integer name="dilation_iterations" value="-1"/>', "'dilation_iterations' = -1"),
         ('<float name="t0" value="1.5"/>', "parameter 't0' = 1.5: must lie in [0, 1]"),
         ('<float name="t0" value="-0.5"/>', "parameter 't0' = -0.5"),
-        ('<float name="normal_edges" value="180"/>', "parameter 'normal_edges' = 180.0"),
+        ('<float name="crease_angle" value="181"/>', "parameter 'crease_angle' = 181.0"),
         ('<string name="line_color" value="blue"/>', "parameter 'line_color' = 'blue'"),
         ('<rgb name="line_color" value="-1, 0, 0"/>', "'line_color' = [-1, 0, 0]: must be finite"),
         ('<string name="remove_isolated" value="maybe"/>', "parameter 'remove_isolated'"),
         ('<float name="tt" value="1"/>', "npr_lines: unknown parameter 'tt'"),
+        ('<integer name="line_aa" value="0"/>', "parameter 'line_aa' = 0: must be an integer"),
+        ('<float name="line_width" value="6"/>', "line_width = 6 with line_aa = 3: 18 sub-"),
     ],
 )
 def test05_bad_xml_parameters_are_one_line_errors(write_scene, param, message):

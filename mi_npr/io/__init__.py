@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
+from .. import layers as L
 from ..gbuffer import GBuffer
 from ._atomic import atomic_output, check_writable_dir
 from .exr import describe, read_exr, write_exr
@@ -13,10 +15,28 @@ from .svg import svg_document, write_contour_outputs, write_svg
 from .text import write_text
 
 
-def write_outputs(gb: GBuffer, outdir: str | os.PathLike[str], stem: str) -> list[Path]:
-    """``outdir/<stem>.exr`` (every layer) and ``outdir/<stem>.png`` (the beauty, sRGB)."""
+def write_outputs(
+    gb: GBuffer,
+    outdir: str | os.PathLike[str],
+    stem: str,
+    line_color: Sequence[float] | None = None,
+    paper: Sequence[float] | None = None,
+) -> list[Path]:
+    """``outdir/<stem>.exr`` (every layer), ``outdir/<stem>.png`` (the beauty, sRGB) and, when
+    ``gb`` has a ``lines`` layer, ``outdir/<stem>_lines.png``: the drawing alone,
+    ``line_color`` ink (default black) on ``paper`` (default white), linear RGB. Each file is
+    written under a temporary name and renamed when complete; the drawing is computed before
+    any file is written, so bad colours leave no output."""
+    from ..drawing import INK, PAPER, drawing
+
     d = check_writable_dir(outdir, create=True)
-    return [write_exr(d / f"{stem}.exr", gb), write_png(d / f"{stem}.png", gb.beauty)]
+    sheet = None
+    if L.LINES in gb:
+        sheet = drawing(gb, INK if line_color is None else line_color, paper or PAPER)
+    out = [write_exr(d / f"{stem}.exr", gb), write_png(d / f"{stem}.png", gb.beauty)]
+    if sheet is not None:
+        out.append(write_png(d / f"{stem}_lines.png", sheet))
+    return out
 
 
 __all__ = [

@@ -22,23 +22,48 @@ name                   type     default   meaning
 ``dilation_size``      int      3         selective-dilation window, odd, 3..15
 ``dilation_iterations`` int     1         selective-dilation passes (0 = no pre-filter)
 ``remove_isolated``    bool     true      apply eq. 5.2
-``id_edges``           bool     false     add object-ID edges (2 px thick)
-``normal_edges``       float    0         add creases sharper than this angle, in degrees, on one
-                                          object (2 px thick); 0 = off
+``id_edges``           bool     true      object boundaries (ID edges), 1 px
+``crease_angle``       float    134       creases: 4-neighbours on one object whose dihedral
+                                          angle is below this, in degrees (Freestyle's crease
+                                          angle; 0 = off), 1 px
 ``leaf_edges``         int      0         add the outline of every leaf from the ``leaf_id``
                                           layer: 0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px
+``max_density``        float    1         thin lines where the ink of a 9x9 region exceeds this
+                                          share: creases go first, then ID/leaf edges; depth
+                                          contours stay (1 = off)
+``line_width``         float    1         width of every line in pixels, (0, 15]
 ``bright_fade``        float    0         fade lines out where the beauty's luminance exceeds
                                           this: full below it, none from twice it; 0 = off
 ``near``, ``far``      float    unset     depth range mapped to [0, 1]; unset = the frame's
                                           finite ``Z`` range
 =====================  =======  ========  ======================================================
 
-Why these defaults: with ``Z`` normalised over the frame's depth range, a depth step lights up
-when it exceeds ``t / c`` = 2.5 % of that range and is fully black from 5 %; on the paper's
-scenes at 640x480 this draws every silhouette as a clean 1-px line, while the steepest in-surface
-steps (the floor near the horizon, sphere rims) stay below it. ID and normal edges are off because
-they are 2 px thick (see :mod:`mi_npr.kernels.edges`); turn them on for touching or intersecting
-objects (scene 4) and for creases.
+Why these defaults (issue 19): a line drawing holds silhouettes, object boundaries and creases,
+which is what Blender Freestyle draws (silhouette + border + crease at 134 degrees); depth alone
+misses boundaries at equal depth (touching objects, a box on the floor) and every crease (room
+corners, hole rims). With ``Z`` normalised over the frame's depth range, a depth step lights up
+when it exceeds ``t / c`` = 2.5 % of that range and is fully black from 5 %.
+
+**The width rule**: every kind of line is 1 px wide before ``line_width``: one side of every
+edge. Eq. 5.1 is signed and inks the near side of a depth step; ID and crease edges ink one
+pixel of each pair of 4-neighbours they separate, the near one where the pair's depth (the same
+normalised, pre-filtered depth eq. 5.1 reads) steps by more than eq. 5.1's ``t / c``, else the
+larger id (ID edges) or the surface facing the camera more (creases; the camera's axis is the
+G-buffer's ``camera.forward``, +z for a plain mapping); see :mod:`mi_npr.kernels.edges`. So
+edges of several kinds on one boundary land on the same pixels and never double the width.
+Then ``max_density`` thins (:func:`~mi_npr.kernels.ink.ink_density`), ``line_width`` widens
+every line alike (:func:`~mi_npr.kernels.ink.widen_lines`) and ``bright_fade`` fades.
+
+**Anti-aliasing** (the ``npr_lines`` plugin's ``line_aa``, :mod:`mi_npr.antialias`) runs this
+chain unchanged on an ``n``-times supersampled G-buffer with ``line_width * n`` and box-filters
+the result: eq. 5.1's gray levels then also carry *sub-pixel position* (a contour crossing a
+third of a pixel inks it at a third); eq. 5.2 removes fragments shorter than 3 sub-pixels, not
+3 pixels; the selective dilation (eqs. 5.3-5.4) fills holes of ``dilation_size`` sub-pixels;
+``max_density``'s window is 9 sub-pixels wide.
+
+A G-buffer without ``object_id`` (or ``N.X N.Y N.Z``) gets no ID edges (creases) unless they
+were asked for explicitly, which is then an error naming the missing layer: depth alone is
+enough for the defaults.
 
 Foliage (issue 8, thesis section 4.3): ``leaf_edges`` outlines every leaf primitive, which depth
 contours alone miss where leaves overlap at nearly equal depth (see
@@ -71,7 +96,8 @@ from ._stencil import (
     unit_interval,
 )
 from .depth_lines import check_range, contours, depth_normalizer, isolated_removed
-from .edges import angle, edge_width, id_edge, leaf_edge, normal_edge
+from .edges import crease_edge, dihedral, edge_width, id_edge_sided, leaf_edge
+from .ink import DENSITY_WINDOW, box_mean, density_bound, line_width, widened
 from .morphology import dilated, iteration_count, window_size
 
 
@@ -86,9 +112,13 @@ LINES_PARAMS: tuple[Param, ...] = (
     Param("dilation_size", int, 3, "selective dilation window (odd, 3..15)", window_size),
     Param("dilation_iterations", int, 1, "selective dilation passes (0 = off)", iteration_count),
     Param("remove_isolated", bool, True, "remove isolated line pixels (eq. 5.2)"),
-    Param("id_edges", bool, False, "add object-ID edges"),
-    Param("normal_edges", float, 0.0, "add creases sharper than this (degrees; 0 = off)", angle),
+    Param("id_edges", bool, True, "draw object boundaries (ID edges, 1 px)"),
+    Param(
+        "crease_angle", float, 134.0, "draw creases below this dihedral angle (0 = off)", dihedral
+    ),
     Param("leaf_edges", int, 0, "outline every leaf: 0 off, 1 or 2 px", _leaf_width),
+    Param("max_density", float, 1.0, "thin lines denser than this (1 = off)", density_bound),
+    Param("line_width", float, 1.0, "width of every line, in pixels", line_width),
     Param("bright_fade", float, 0.0, "fade lines above this luminance (0 = off)", nonnegative),
     Param("near", float, None, "depth mapped to 0 (unset: nearest finite Z)", finite),
     Param("far", float, None, "depth mapped to 1 (unset: farthest finite Z)", finite),
@@ -106,13 +136,13 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
     """The gray-level line image of a G-buffer (the ``lines`` layer), see the module docstring.
 
     ``gbuffer`` is a :class:`~mi_npr.gbuffer.GBuffer` (or any mapping of layer names to (H, W)
-    arrays) with ``Z``, plus ``object_id`` for ID edges, ``N.X N.Y N.Z`` for normal edges,
-    ``leaf_id`` for leaf edges and ``R G B`` (or ``beauty.R/G/B``) for ``bright_fade``.
+    arrays) with ``Z``, plus ``object_id`` for ID edges, ``N.X N.Y N.Z`` (and ``object_id``) for
+    creases, ``leaf_id`` for leaf edges and ``R G B`` (or ``beauty.R/G/B``) for ``bright_fade``.
     ``params`` are those of :data:`LINES_PARAMS`; unknown names and bad values raise
     :class:`~mi_npr.errors.ParameterError` naming the parameter.
 
     >>> gb = mi_npr.render("scenes_xml/scene2.xml", width=160, height=120)  # doctest: +SKIP
-    >>> ink = mi_npr.kernels.lines(gb, t=0.5, id_edges=True)                 # doctest: +SKIP
+    >>> ink = mi_npr.kernels.lines(gb, t=0.5, crease_angle=0)                # doctest: +SKIP
     >>> np.asarray(ink).shape                                                # doctest: +SKIP
     (120, 160)
     """
@@ -132,34 +162,88 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
         dr.eval(ink)
         ink = isolated_removed(Field(ink, grid), p["t0"])
 
-    z_raw = Field(z, grid, lambda v: dr.select(dr.isnan(v), dr.inf, v))
-    edge = None
-    if p["id_edges"] or p["normal_edges"] > 0:
-        why = "needed by id_edges and normal_edges"
-        ids, shape_i = id_image(_layer(gbuffer, L.OBJECT_ID, why), L.OBJECT_ID)
-        same_shape({L.Z: shape, L.OBJECT_ID: shape_i})
-        id_field = Field(ids, grid)
-        if p["id_edges"]:
-            edge = id_edge(id_field)
-        if p["normal_edges"] > 0:
-            normals = [float_image(_layer(gbuffer, n, "needed by normal_edges"), n) for n in L.N]
-            same_shape({L.Z: shape, **{n: s for n, (_, s) in zip(L.N, normals, strict=True)}})
-            planes = [q for q, _ in normals]
-            crease = normal_edge([Field(q, grid) for q in planes], id_field, p["normal_edges"])
-            edge = crease if edge is None else edge | crease
+    # The step eq. 5.1 draws: ID and crease edges at such a step take eq. 5.1's (near) side.
+    step = opaque(p["t"] / p["c"] if p["c"] > 0 else float("inf"))
+    boundary, crease = _edges(gbuffer, params, p, depth, grid, step)
     if p["leaf_edges"]:
         leaf, shape_l = id_image(_layer(gbuffer, L.LEAF_ID, "needed by leaf_edges"), L.LEAF_ID)
         same_shape({L.Z: shape, L.LEAF_ID: shape_l})
+        z_raw = Field(z, grid, lambda v: dr.select(dr.isnan(v), dr.inf, v))
         outline = leaf_edge(Field(leaf, grid), z_raw, p["leaf_edges"])
-        edge = outline if edge is None else edge | outline
-    if edge is not None:
-        ink = dr.select(edge, 1.0, ink)
+        boundary = outline if boundary is None else boundary | outline
+    ink = _thinned(ink, boundary, crease, grid, p["max_density"])
+    if p["line_width"] != 1.0:
+        dr.eval(ink)
+        ink = widened(Field(ink, grid), p["line_width"])
     if p["bright_fade"] > 0:
-        ink = ink * _fade(gbuffer, shape, p["bright_fade"])
+        ink = ink * fade(gbuffer, shape, p["bright_fade"])
     return tensor(ink, shape)
 
 
-def _fade(gbuffer: Mapping[str, Any], shape: tuple[int, int], level: float) -> Any:
+def _edges(
+    gbuffer: Mapping[str, Any],
+    given: Mapping[str, Any],
+    p: Mapping[str, Any],
+    depth: Field,
+    grid: Grid,
+    step: Any,
+) -> tuple[Any, Any]:
+    """The lazy 1-px ID and crease edge masks (``None`` where off). A kind left at its default
+    is skipped on a G-buffer without its layers; asked for explicitly, it needs them."""
+    shape = grid.shape
+    has_n = all(n in gbuffer for n in L.N)
+    want_id = p["id_edges"] and ("id_edges" in given or L.OBJECT_ID in gbuffer)
+    want_crease = p["crease_angle"] > 0 and (
+        "crease_angle" in given or (has_n and L.OBJECT_ID in gbuffer)
+    )
+    if not (want_id or want_crease):
+        return None, None
+    why = "needed by id_edges and crease_angle"
+    ids, shape_i = id_image(_layer(gbuffer, L.OBJECT_ID, why), L.OBJECT_ID)
+    same_shape({L.Z: shape, L.OBJECT_ID: shape_i})
+    id_field = Field(ids, grid)
+    boundary = id_edge_sided(id_field, depth, step) if want_id else None
+    crease = None
+    if want_crease:
+        normals = [float_image(_layer(gbuffer, n, "needed by crease_angle"), n) for n in L.N]
+        same_shape({L.Z: shape, **{n: s for n, (_, s) in zip(L.N, normals, strict=True)}})
+        fields = [Field(q, grid) for q, _ in normals]
+        crease = crease_edge(fields, id_field, p["crease_angle"], depth, step, view_axis(gbuffer))
+    return boundary, crease
+
+
+def view_axis(gbuffer: Any) -> tuple[float, float, float]:
+    """The camera's viewing axis in world space: ``gbuffer.camera.forward`` when the G-buffer
+    has a camera, else +z (Mitsuba's camera space)."""
+    camera = getattr(gbuffer, "camera", None)
+    if camera is None:
+        return (0.0, 0.0, 1.0)
+    f = [float(v) for v in camera.forward]
+    return (f[0], f[1], f[2])
+
+
+def _thinned(ink: Any, boundary: Any, crease: Any, grid: Grid, bound: float) -> Any:
+    """Contours, boundaries and creases combined at full strength (``max``), thinned where the
+    ink density over :data:`DENSITY_WINDOW` exceeds ``bound``: first without creases, then,
+    where still too dense, without ID (and leaf) edges; depth contours always stay."""
+    edge = boundary if crease is None else crease if boundary is None else boundary | crease
+    full = ink if edge is None else dr.select(edge, 1.0, ink)
+    if bound >= 1.0 or edge is None:
+        return full
+    levels = [full]
+    if crease is not None and boundary is not None:
+        levels.append(dr.select(boundary, 1.0, ink))
+    levels.append(ink)
+    dr.eval(*levels)
+    out = levels[0]
+    for sparser in levels[1:]:
+        dr.eval(out)
+        dense = box_mean(Field(out, grid), DENSITY_WINDOW) > opaque(bound)
+        out = dr.select(dense, sparser, out)
+    return out
+
+
+def fade(gbuffer: Mapping[str, Any], shape: tuple[int, int], level: float) -> Any:
     """``clip(2 - Y / level, 0, 1)`` of the raw beauty's luminance ``Y`` (lazy)."""
     names = L.RAW_RGB if L.RAW_RGB[0] in gbuffer else L.RGB
     planes = []

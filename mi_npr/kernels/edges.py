@@ -22,6 +22,27 @@ the image repeat the border pixel, so the image border itself is never an edge:
   ``Z``; on equal depth the larger id), so every outline is 1 px thick and belongs to the leaf in
   front, as eq. 5.1 puts depth lines on the near side. NaN depth reads as +inf (background).
 
+- *Crease edge* (issue 19): a pixel of an object whose normal makes a *dihedral angle* smaller
+  than ``crease_angle`` degrees with the normal of a 4-neighbour on the same object, the
+  dihedral angle being ``180 - angle(n0, n1)`` (two coplanar faces: 180, a cube's edge: 90), as
+  Blender Freestyle's crease angle (default 134) defines it. Always 1 px thick.
+
+**Which side is drawn** (1-px ID and crease edges, issue 19). Every edge separates a pair of
+4-neighbours ``p, q``; exactly one of them is inked, by one rule shared by all kinds:
+
+1. a *depth step*: where ``q`` is farther than ``p`` by more than ``step`` (in the units of the
+   depth given), ``p`` is inked, not ``q``: the near side, where eq. 5.1 puts the pixel of the
+   same step. The chain passes its normalised, pre-filtered depth and ``step = t / c``, eq. 5.1's
+   own threshold, so an ID or crease edge at a silhouette lands on eq. 5.1's pixels and never
+   widens the line;
+2. no depth step (touching objects, a crease on one surface): depth cannot choose a side, as the
+   surfaces' own slopes make "nearer" flip from pixel to pixel along the edge (2-px patches on
+   diagonal edges). A per-surface key chooses instead, constant along the edge, so the ink is
+   the boundary row of one surface only: for ID edges the *larger object id* (as
+   :func:`leaf_edges`); for creases the surface that *faces the camera more* (larger
+   ``-n . view / |n|``, ``view`` the camera's viewing axis), equal facing resolved by the larger
+   normal in lexicographic (x, y, z) order.
+
 All return a ``drjit.llvm.ad.TensorXf`` of 0 and 1, shape (H, W).
 """
 
@@ -32,8 +53,9 @@ import numbers
 from typing import Any
 
 import drjit as dr
-from drjit.llvm.ad import Bool, TensorXf
+from drjit.llvm.ad import Bool, Float, TensorXf
 
+from ..errors import ParameterError
 from ._stencil import (
     CROSS,
     Field,
@@ -58,19 +80,61 @@ def id_edge(ids: Field) -> Bool:
     return edge
 
 
-def id_edges(object_id: Any) -> TensorXf:
-    """1 where a 4-neighbour has another ``object_id`` (ID edges, 2 px thick), else 0.
+def owns(z0: Any, z1: Any, step: Any, key_wins: Bool) -> Bool:
+    """Whether pixel ``p`` (depth ``z0``) inks the edge it shares with ``q`` (depth ``z1``): the
+    side rule of the module docstring. ``key_wins`` is the per-surface key's verdict."""
+    dz = z1 - z0
+    return (dz > step) | ((dr.abs(dz) <= step) & key_wins)
+
+
+def id_edge_sided(ids: Field, depth: Field, step: Any) -> Bool:
+    """1-px ID edges (lazy): pixels with a 4-neighbour of another id that they own (see
+    :func:`owns`; ties go to the larger id)."""
+    centre, z0 = ids.at(), depth.at()
+    edge = None
+    for dy, dx in CROSS:
+        other = ids.at(dy, dx)
+        mine = (other != centre) & owns(z0, depth.at(dy, dx), step, centre > other)
+        edge = mine if edge is None else edge | mine
+    return edge
+
+
+def _step(step: Any) -> str | None:
+    ok = isinstance(step, numbers.Real) and not isinstance(step, bool) and step >= 0
+    return None if ok and not math.isnan(step) else "must be a number >= 0 (inf allowed)"
+
+
+def _depth_field(depth: Any, shape: tuple[int, int], grid: Grid, name: str) -> Field:
+    """``depth`` (or all zeros when ``None``) as a field, NaN read as +inf (background)."""
+    if depth is None:
+        return Field(dr.zeros(Float, shape[0] * shape[1]), grid)
+    z, shape_z = float_image(depth, name)
+    same_shape({"object_id": shape, name: shape_z})
+    return Field(z, grid, _inf_for_nan)
+
+
+def id_edges(object_id: Any, width: int = 2, Z: Any = None, step: float = 0.0) -> TensorXf:
+    """1 where a 4-neighbour has another ``object_id`` (ID edges), else 0.
 
     ``object_id`` is an (H, W) array of integers >= 0 (uint32 from the G-buffer, or floats
-    holding integers, as in ``mi.render``'s tensor).
+    holding integers, as in ``mi.render``'s tensor). ``width=2`` marks both sides of every
+    boundary; ``width=1`` only one: the nearer pixel where the depth ``Z`` (optional, (H, W),
+    NaN = background) steps by more than ``step``, else the larger id (module docstring).
 
     >>> import numpy as np
     >>> ids = np.array([[1, 1, 2, 2]], np.uint32)
-    >>> np.asarray(id_edges(ids))
-    array([[0., 1., 1., 0.]], dtype=float32)
+    >>> np.asarray(id_edges(ids)), np.asarray(id_edges(ids, 1))
+    (array([[0., 1., 1., 0.]], dtype=float32), array([[0., 0., 1., 0.]], dtype=float32))
     """
+    require("width", width, edge_width)
+    require("step", step, _step)
     ids, shape = id_image(object_id, "object_id")
-    return tensor(dr.select(id_edge(Field(ids, Grid(shape))), 1.0, 0.0), shape)
+    grid = Grid(shape)
+    if width == 2:
+        return tensor(dr.select(id_edge(Field(ids, grid)), 1.0, 0.0), shape)
+    depth = _depth_field(Z, shape, grid, "Z")
+    edge = id_edge_sided(Field(ids, grid), depth, dr.opaque(Float, float(step)))
+    return tensor(dr.select(edge, 1.0, 0.0), shape)
 
 
 def angle(v: Any) -> str | None:
@@ -119,6 +183,104 @@ def normal_edges(N: Any, object_id: Any, angle_deg: float) -> TensorXf:
     shape = same_shape({"N": shape_n, "object_id": shape_i})
     grid = Grid(shape)
     edge = normal_edge([Field(p, grid) for p in planes], Field(ids, grid), angle_deg)
+    return tensor(dr.select(edge, 1.0, 0.0), shape)
+
+
+def dihedral(v: Any) -> str | None:
+    """The rule for ``crease_angle``: degrees in [0, 180] (0 = no creases)."""
+    ok = isinstance(v, numbers.Real) and not isinstance(v, bool) and 0 <= v <= 180
+    return None if ok else "must lie in [0, 180] degrees (dihedral angle; 0 = off)"
+
+
+def _unit(n: list[Any]) -> list[Any]:
+    length = dr.sqrt(dr.fma(n[0], n[0], dr.fma(n[1], n[1], n[2] * n[2])))
+    return [c / length for c in n]
+
+
+def crease_edge(
+    N: list[Field],
+    ids: Field,
+    crease_angle: float,
+    depth: Field,
+    step: Any,
+    view: tuple[float, float, float],
+) -> Bool:
+    """1-px crease edges (lazy): pixels whose dihedral angle to a 4-neighbour on the same object
+    is below ``crease_angle`` (normals turning by more than ``180 - crease_angle``) and that own
+    the edge (:func:`owns`; ties to the surface facing ``view``'s camera more)."""
+    cos_a = opaque(round(math.cos(math.radians(180.0 - crease_angle)), 12))
+    n0 = [f.at() for f in N]
+    u0 = _unit(n0)
+    facing0 = -(u0[0] * view[0] + u0[1] * view[1] + u0[2] * view[2])
+    len0 = dr.sqrt(dr.fma(n0[0], n0[0], dr.fma(n0[1], n0[1], n0[2] * n0[2])))
+    id0, z0 = ids.at(), depth.at()
+    edge = None
+    for dy, dx in CROSS:
+        n1 = [f.at(dy, dx) for f in N]
+        len1 = dr.sqrt(dr.fma(n1[0], n1[0], dr.fma(n1[1], n1[1], n1[2] * n1[2])))
+        dot = dr.fma(n0[0], n1[0], dr.fma(n0[1], n1[1], n0[2] * n1[2]))
+        differ = (n1[0] != n0[0]) | (n1[1] != n0[1]) | (n1[2] != n0[2])
+        bent = (ids.at(dy, dx) == id0) & differ & (dot < cos_a * len0 * len1)
+        u1 = _unit(n1)
+        facing1 = -(u1[0] * view[0] + u1[1] * view[1] + u1[2] * view[2])
+        lexi = (u0[0] > u1[0]) | (
+            (u0[0] == u1[0]) & ((u0[1] > u1[1]) | ((u0[1] == u1[1]) & (u0[2] > u1[2])))
+        )
+        key = (facing0 > facing1) | ((facing0 == facing1) & lexi)
+        mine = bent & owns(z0, depth.at(dy, dx), step, key)
+        edge = mine if edge is None else edge | mine
+    return edge & (id0 != 0)
+
+
+def _view(v: Any) -> tuple[float, float, float]:
+    try:
+        a = [float(c) for c in v]
+    except (TypeError, ValueError):
+        a = []
+    norm = math.sqrt(sum(c * c for c in a)) if len(a) == 3 else 0.0
+    if not (math.isfinite(norm) and norm > 0):
+        raise ParameterError(f"view = {v!r}: must be a non-zero, finite 3-vector")
+    return (a[0] / norm, a[1] / norm, a[2] / norm)
+
+
+def crease_edges(
+    N: Any,
+    object_id: Any,
+    crease_angle: float = 134.0,
+    Z: Any = None,
+    step: float = 0.0,
+    view: tuple[float, float, float] = (0.0, 0.0, 1.0),
+) -> TensorXf:
+    """1 on creases (dihedral angle below ``crease_angle`` degrees between 4-neighbours on one
+    object), 1 px thick, else 0; background (id 0) has none. ``crease_angle = 0`` draws none.
+
+    ``N`` is an (H, W, 3) array of world-space normals (any length), ``object_id`` (H, W) ids,
+    ``Z`` optional (H, W) depth with ``step`` (see the module docstring's side rule) and ``view``
+    the camera's viewing axis in world space (Mitsuba's camera looks along its +z).
+
+    >>> import numpy as np   # a cube's edge seen head-on from the front face's side
+    >>> N = np.zeros((1, 4, 3), np.float32); N[0, :2, 2] = -1; N[0, 2:, 0] = 1
+    >>> np.asarray(crease_edges(N, np.ones((1, 4), np.uint32)))   # 90 < 134: the front face
+    array([[0., 1., 0., 0.]], dtype=float32)
+    """
+    require("crease_angle", crease_angle, dihedral)
+    require("step", step, _step)
+    view = _view(view)
+    planes, shape_n = vector_image(N, "N")
+    ids, shape = id_image(object_id, "object_id")
+    same_shape({"object_id": shape, "N": shape_n})
+    grid = Grid(shape)
+    if crease_angle == 0:
+        return tensor(dr.zeros(Float, shape[0] * shape[1]), shape)
+    depth = _depth_field(Z, shape, grid, "Z")
+    edge = crease_edge(
+        [Field(p, grid) for p in planes],
+        Field(ids, grid),
+        crease_angle,
+        depth,
+        dr.opaque(Float, float(step)),
+        view,
+    )
     return tensor(dr.select(edge, 1.0, 0.0), shape)
 
 

@@ -1,0 +1,135 @@
+"""Anti-aliased lines (issue 19): the line chain on a supersampled G-buffer, box-filtered to the
+film's resolution.
+
+The G-buffer of :mod:`mi_npr.render` has one exact ray per pixel centre, so every line is a row
+of whole pixels, jagged wherever it is not axis-aligned. With ``n > 1`` the G-buffer is traced
+again with ``n x n`` rays per pixel, at the sub-pixel centres ``x + (i + 0.5) / n`` (the centres
+of the pixels of a film ``n`` times larger), the chain of :func:`mi_npr.kernels.lines` runs on
+that ``(n H, n W)`` G-buffer with ``line_width`` scaled by ``n``, and each film pixel gets the
+mean of its ``n x n`` block: the gray level is the share of the pixel's area that the line
+covers, so lines come out smooth at the film's resolution and keep their width in film pixels.
+
+How this extends the thesis (section 5.1). Eq. 5.1 already gives gray levels to small depth
+steps; supersampling carries its contours to sub-pixel positions: a contour that runs through a
+film pixel at a fraction of its width inks that fraction. The other stages run at the
+supersampled resolution, in sub-pixels:
+
+- eq. 5.2 (isolated-pixel removal) removes contour fragments shorter than 3 *sub-pixels*, so
+  fragments of a film pixel survive that would vanish at ``n = 1``; fragments shorter than the
+  film pixel then enter as faint gray, not as a black dot;
+- the selective dilation (eqs. 5.3-5.4) fills holes of ``dilation_size`` sub-pixels, i.e.
+  ``dilation_size / n`` film pixels: it fills the same geometric holes as at ``n = 1`` only
+  up to that size; raise ``dilation_size`` with ``n`` to fill wider ones;
+- ``max_density`` measures ink over a 9x9 window of sub-pixels; ``bright_fade`` is applied after
+  the box filter, from the film-resolution beauty.
+
+``antialiased_lines(..., n)`` equals ``box_filter(lines(G, line_width=w * n), n)`` with ``G`` the
+pixel-centre G-buffer of the same camera on a film ``n`` times larger (bit for bit where the
+sub-pixel positions are exact in float32, e.g. ``n`` a power of two).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from . import layers as L
+from .errors import ParameterError
+from .gbuffer import GBuffer, to_numpy
+from .kernels import LINES_PARAMS, lines
+from .kernels.chain import fade
+from .kernels.ink import MAX_WIDTH
+from .params import check_values
+from .render import pixel_rays, trace
+from .scene import camera_of, object_table
+
+#: Most rays per pixel side: 8 x 8 = 64 rays per pixel.
+MAX_AA = 8
+
+
+def aa_factor(v: Any) -> str | None:
+    """The rule for ``line_aa``: an integer in [1, MAX_AA] (rays per pixel side)."""
+    ok = isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_AA
+    return None if ok else f"must be an integer in [1, {MAX_AA}] (rays per pixel side)"
+
+
+def check_aa_width(width: float, n: int, who: str = "") -> None:
+    """``line_width`` is drawn ``n`` times wider on the supersampled G-buffer: at most
+    :data:`~mi_npr.kernels.ink.MAX_WIDTH` sub-pixels."""
+    if width * n > MAX_WIDTH:
+        prefix = f"{who}: " if who else ""
+        raise ParameterError(
+            f"{prefix}line_width = {width:g} with line_aa = {n}: {width * n:g} sub-pixels wide, "
+            f"more than {MAX_WIDTH:g}"
+        )
+
+
+def supersampled_gbuffer(scene: mi.Scene, sensor: mi.Sensor, n: int) -> GBuffer:
+    """The G-buffer layers ``Z P N object_id prim_id`` of ``n x n`` rays per pixel, laid out as
+    an ``(n H, n W)`` image (the pixel-centre G-buffer of a film ``n`` times larger)."""
+    w, h = (int(v) for v in sensor.film().crop_size())
+    W, H = w * n, h * n
+    table = object_table(scene)
+    if not dr.is_jit_v(mi.Float):  # scalar variants: one ray at a time
+        return GBuffer(_scalar_pass(scene, sensor, table, n, H, W), table.names, camera_of(sensor))
+    idx = dr.arange(mi.UInt32, W * H)
+    # (j + 0.5) / n film pixels: the centre of sub-pixel j of the n-times-larger film.
+    x = (mi.Float(idx % W) + 0.5) / float(n)
+    y = (mi.Float(idx // W) + 0.5) / float(n)
+    out = trace(scene, sensor, pixel_rays(sensor, x, y), table, shade=False)
+    dr.eval(*out.values())
+    layers = {k: to_numpy(out[k]).reshape(H, W) for k in L.GBUFFER_AOVS}
+    return GBuffer(layers, table.names, camera_of(sensor))
+
+
+def _scalar_pass(
+    scene: mi.Scene, sensor: mi.Sensor, table: Any, n: int, H: int, W: int
+) -> dict[str, np.ndarray]:
+    ints = (L.OBJECT_ID, L.PRIM_ID)
+    out = {k: np.zeros((H, W), np.uint32 if k in ints else np.float32) for k in L.GBUFFER_AOVS}
+    for j in range(H):
+        for i in range(W):
+            ray = pixel_rays(sensor, (i + 0.5) / n, (j + 0.5) / n)
+            values = trace(scene, sensor, ray, table, shade=False)
+            for k in L.GBUFFER_AOVS:
+                out[k][j, i] = values[k]
+    return out
+
+
+def box_filter(image: Any, n: int) -> np.ndarray:
+    """The mean of every ``n x n`` block of an ``(n H, n W)`` image: ``(H, W)`` float32."""
+    a = np.asarray(image, dtype=np.float32)
+    if a.ndim != 2 or a.shape[0] % n or a.shape[1] % n:
+        raise ParameterError(f"box_filter: shape {a.shape} is not a multiple of {n}")
+    h, w = a.shape[0] // n, a.shape[1] // n
+    return a.reshape(h, n, w, n).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
+
+
+def antialiased_lines(
+    scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer, n: int, **params: Any
+) -> np.ndarray:
+    """The ``lines`` layer with ``n x n`` rays per pixel (module docstring); ``n = 1`` is
+    :func:`mi_npr.kernels.lines` on ``gb`` itself. ``gb`` is the film-resolution G-buffer
+    (for ``bright_fade``); ``params`` are those of :data:`~mi_npr.kernels.LINES_PARAMS`."""
+    problem = aa_factor(n)
+    if problem:
+        raise ParameterError(f"line_aa = {n!r}: {problem}")
+    check_values("lines", LINES_PARAMS, params)
+    if n == 1:
+        return to_numpy(lines(gb, **params))
+    width = float(params.get("line_width", 1.0))
+    check_aa_width(width, n)
+    big = supersampled_gbuffer(scene, sensor, n)
+    if params.get("leaf_edges"):
+        from .foliage.leaves import leaf_id_layer
+
+        big = big.with_layers({L.LEAF_ID: leaf_id_layer(scene, big)})
+    level = float(params.get("bright_fade", 0.0))
+    sub = {**params, "line_width": width * n, "bright_fade": 0.0}
+    ink = box_filter(to_numpy(lines(big, **sub)), n)
+    if level > 0:
+        ink = ink * to_numpy(fade(gb, gb.shape, level)).reshape(gb.shape)
+    return ink

@@ -1,0 +1,101 @@
+"""Issue 19: anti-aliased lines from a supersampled G-buffer equal the box-filtered lines of the
+same camera rendered on a film N times larger."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mi_npr
+from mi_npr import kernels as K
+from mi_npr import layers as L
+from mi_npr.antialias import antialiased_lines, box_filter, supersampled_gbuffer
+
+from .helpers import scene_xml
+
+BODY = (
+    '<shape type="sphere" id="ball"><point name="center" x="-0.6" y="0.1" z="5"/>'
+    '<float name="radius" value="0.8"/></shape>'
+    '<shape type="cube" id="box"><transform name="to_world"><scale value="0.6"/>'
+    '<rotate y="1" angle="35"/><rotate x="1" angle="25"/><translate x="0.9" y="-0.2" z="5.5"/>'
+    "</transform></shape>"
+    '<shape type="rectangle" id="wall"><transform name="to_world">'
+    '<scale value="30"/><translate z="12"/></transform></shape>'
+)
+
+
+def _scene(tmp_path, w, h):
+    p = tmp_path / f"s{w}x{h}.xml"
+    p.write_text(scene_xml(BODY, width=w, height=h, integrator='<integrator type="npr_gbuffer"/>'))
+    return mi_npr.load_scene(p)
+
+
+def ref_box(a, n):
+    h, w = a.shape[0] // n, a.shape[1] // n
+    out = np.zeros((h, w))
+    for y in range(h):
+        for x in range(w):
+            out[y, x] = a[y * n : (y + 1) * n, x * n : (x + 1) * n].astype(np.float64).mean()
+    return out
+
+
+def test01_box_filter_matches_reference():
+    a = np.random.default_rng(73).random((12, 18)).astype(np.float32)
+    for n in (1, 2, 3, 6):
+        np.testing.assert_allclose(box_filter(a, n), ref_box(a, n), atol=1e-7)
+    with pytest.raises(mi_npr.ParameterError, match="not a multiple of 4"):
+        box_filter(a, 4)
+
+
+@pytest.mark.parametrize("n", [2, 4])
+@pytest.mark.parametrize("params", [{}, {"line_width": 1.5, "t": 0.5}])
+def test02_supersampled_equals_box_filtered_large_film(tmp_path, n, params):
+    """n x n rays per pixel = the pixel centres of a film n times larger (exact for powers of
+    two), so the AA lines are the large film's lines, line_width scaled by n, box-filtered."""
+    w, h = 24, 16
+    scene = _scene(tmp_path, w, h)
+    gb = mi_npr.render(scene)
+    sensor = scene.sensors()[0]
+    big = mi_npr.render(_scene(tmp_path, w * n, h * n))
+    sup = supersampled_gbuffer(scene, sensor, n)
+    for name in (L.Z, L.OBJECT_ID, *L.N):
+        np.testing.assert_array_equal(sup[name], big[name], err_msg=name)
+    width = params.get("line_width", 1.0)
+    expected = ref_box(np.asarray(K.lines(big, **{**params, "line_width": width * n})), n)
+    got = antialiased_lines(scene, sensor, gb, n, **params)
+    assert got.shape == (h, w) and got.dtype == np.float32
+    np.testing.assert_allclose(got, expected, atol=1e-6)
+    assert 0 < got[got > 0].min() < 1  # gray levels
+
+
+def test03_three_by_three_matches_up_to_rounding(tmp_path):
+    """n = 3: sub-pixel positions (j + 0.5) / 3 round differently from the large film's, which
+    may move a ray by an ulp; the images agree but for rare pixels."""
+    w, h, n = 24, 16, 3
+    scene = _scene(tmp_path, w, h)
+    big = mi_npr.render(_scene(tmp_path, w * n, h * n))
+    expected = ref_box(np.asarray(K.lines(big, line_width=float(n))), n)
+    got = antialiased_lines(scene, scene.sensors()[0], mi_npr.render(scene), n)
+    assert np.mean(np.abs(got - expected) > 1e-6) < 0.02
+
+
+def test04_one_ray_is_the_pixel_centre_chain(tmp_path):
+    scene = _scene(tmp_path, 20, 14)
+    gb = mi_npr.render(scene)
+    got = antialiased_lines(scene, scene.sensors()[0], gb, 1, crease_angle=100.0)
+    np.testing.assert_array_equal(got, np.asarray(K.lines(gb, crease_angle=100.0)))
+
+
+def test05_plugin_and_bad_values(write_scene):
+    lines = '<integrator type="npr_lines"><integer name="line_aa" value="2"/></integrator>'
+    scene = mi_npr.load_scene(write_scene(BODY, integrator=lines))
+    gb = mi_npr.render(scene)
+    expected = antialiased_lines(scene, scene.sensors()[0], gb, 2)
+    np.testing.assert_array_equal(gb[L.LINES], expected)
+    sensor = scene.sensors()[0]
+    with pytest.raises(mi_npr.ParameterError, match=r"line_aa = 9: must be an integer in \[1, 8\]"):
+        antialiased_lines(scene, sensor, gb, 9)
+    with pytest.raises(mi_npr.ParameterError, match="line_width = 8 with line_aa = 2"):
+        antialiased_lines(scene, sensor, gb, 2, line_width=8.0)
+    with pytest.raises(mi_npr.ParameterError, match="unknown parameter 'cc'"):
+        antialiased_lines(scene, sensor, gb, 2, cc=1.0)
