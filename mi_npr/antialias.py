@@ -43,8 +43,10 @@ from .kernels import LINES_PARAMS, lines
 from .kernels.chain import fade
 from .kernels.ink import MAX_WIDTH
 from .params import check_values
-from .render import pixel_rays, trace
+from .raycast import film_grid, film_size, pixel_rays, require_jit
+from .render import channels
 from .scene import camera_of, object_table
+from .session import RENDER_LOCK
 
 #: Most rays per pixel side: 8 x 8 = 64 rays per pixel.
 MAX_AA = 8
@@ -70,33 +72,17 @@ def check_aa_width(width: float, n: int, who: str = "") -> None:
 def supersampled_gbuffer(scene: mi.Scene, sensor: mi.Sensor, n: int) -> GBuffer:
     """The G-buffer layers ``Z P N object_id prim_id`` of ``n x n`` rays per pixel, laid out as
     an ``(n H, n W)`` image (the pixel-centre G-buffer of a film ``n`` times larger)."""
-    w, h = (int(v) for v in sensor.film().crop_size())
+    require_jit("line_aa")
+    w, h = film_size(sensor)
     W, H = w * n, h * n
-    table = object_table(scene)
-    if not dr.is_jit_v(mi.Float):  # scalar variants: one ray at a time
-        return GBuffer(_scalar_pass(scene, sensor, table, n, H, W), table.names, camera_of(sensor))
-    idx = dr.arange(mi.UInt32, W * H)
-    # (j + 0.5) / n film pixels: the centre of sub-pixel j of the n-times-larger film.
-    x = (mi.Float(idx % W) + 0.5) / float(n)
-    y = (mi.Float(idx // W) + 0.5) / float(n)
-    out = trace(scene, sensor, pixel_rays(sensor, x, y), table, shade=False)
-    dr.eval(*out.values())
+    with RENDER_LOCK:
+        table = object_table(scene)
+        # (j + 0.5) / n film pixels: the centre of sub-pixel j of the n-times-larger film.
+        x, y = film_grid(W, H)
+        out = channels(scene, sensor, pixel_rays(sensor, x / n, y / n), table, shade=False)
+        dr.eval(*out.values())
     layers = {k: to_numpy(out[k]).reshape(H, W) for k in L.GBUFFER_AOVS}
     return GBuffer(layers, table.names, camera_of(sensor))
-
-
-def _scalar_pass(
-    scene: mi.Scene, sensor: mi.Sensor, table: Any, n: int, H: int, W: int
-) -> dict[str, np.ndarray]:
-    ints = (L.OBJECT_ID, L.PRIM_ID)
-    out = {k: np.zeros((H, W), np.uint32 if k in ints else np.float32) for k in L.GBUFFER_AOVS}
-    for j in range(H):
-        for i in range(W):
-            ray = pixel_rays(sensor, (i + 0.5) / n, (j + 0.5) / n)
-            values = trace(scene, sensor, ray, table, shade=False)
-            for k in L.GBUFFER_AOVS:
-                out[k][j, i] = values[k]
-    return out
 
 
 def box_filter(image: Any, n: int) -> np.ndarray:

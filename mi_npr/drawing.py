@@ -17,9 +17,9 @@ from . import layers as L
 from .compose import over
 from .errors import ParameterError
 from .gbuffer import GBuffer
-from .render import prepare
 from .render import render as render_gbuffer
 from .scene import merge_defines
+from .session import SceneSession
 
 #: Black ink on white paper (linear RGB).
 INK, PAPER = (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
@@ -53,14 +53,14 @@ def render_lines(
     given = {k: v for k, v in given.items() if v is not None}
     if not given:
         return render_gbuffer(scene, spp=spp, seed=seed, defines=defines)
-    loaded, spp, source = prepare(scene, spp, merge_defines(defines, {}))
-    integrator = loaded.integrator()
+    session = SceneSession.open(scene, spp=spp, defines=merge_defines(defines, {}))
+    integrator = session.scene.integrator()
     if getattr(integrator, "PLUGIN", None) != "npr_lines":
         flags = ", ".join("--" + k.replace("_", "-") for k in given)
         used = getattr(integrator, "PLUGIN", None) or integrator.class_name()
         raise ParameterError(
-            f"{source or 'scene'}: {flags}: only for the npr_lines integrator "
+            f"{session.name}: {flags}: only for the npr_lines integrator "
             f"(the scene uses {used}; try -D integrator=npr_lines)"
         )
     integrator.set_params(**given)
-    return integrator.npr_gbuffer(loaded, spp=spp, seed=seed, source=source)
+    return integrator.npr_gbuffer(session, spp=session.spp, seed=seed)
