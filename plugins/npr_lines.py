@@ -64,9 +64,9 @@ is the ``lines`` layer, and it is composited onto the nested integrator's beauty
    * - ``near``, ``far``
      - float
      - unset
-     - Camera depths mapped to 0 and 1. Unset: the frame's nearest and farthest finite depth.
-       The background is always 1, so the farthest object's contour against the background
-       needs a ``far`` beyond the scene.
+     - Camera depths mapped to 0 and 1. Unset: the frame's nearest finite depth and the larger
+       of its farthest and 4x its nearest. The background is a full step beyond every object
+       pixel whatever ``far`` is (see :mod:`mi_npr.kernels.chain`).
    * - (nested integrator)
      - integrator
      - none

@@ -21,13 +21,31 @@ SIZES = [(1, 1), (1, 9), (9, 1), (7, 5), (64, 48)]
 DEFAULTS = {p.name: p.default for p in K.LINES_PARAMS}
 
 
+def ref_chain_depth(Z, near=None, far=None):
+    """The chain's depth (issue 18): test 11's normalisation, except that with ``far`` unset
+    the far bound is at least ``4 * near`` (a step counts against at least the depth where it
+    happens) and the background reads 2, a full step from every finite pixel."""
+    Z = np.asarray(Z, dtype=np.float64)
+    finite = np.isfinite(Z)
+    if far is None and finite.any():
+        n = Z[finite].min() if near is None else near
+        far = max(Z[finite].max(), n + 3.0 * max(n, 0.0))
+        if near is not None:
+            far = max(far, near)
+        if far <= n:
+            far = None  # a flat frame: test 11's step
+    D = ref_normalize(Z, near, far)
+    D[~finite] = 2.0
+    return D.astype(np.float32)
+
+
 def ref_lines(gb, **params):
     """The chain written with the references: normalise -> selective dilation -> eq. 5.1 ->
     eq. 5.2 -> max with ID and normal edges."""
     p = {**DEFAULTS, **params}
-    D = ref_normalize(gb[L.Z], p["near"], p["far"]).astype(np.float32)
-    D = ref_selective_dilation(D, p["dilation_size"], p["dilation_iterations"])
-    ink = ref_contours(D.astype(np.float32), p["c"], p["t"])
+    D = ref_chain_depth(gb[L.Z], p["near"], p["far"])
+    D = ref_selective_dilation(D, p["dilation_size"], p["dilation_iterations"], top=2.0)
+    ink = ref_contours(D.astype(np.float32), p["c"], p["t"], top=2.0)
     if p["remove_isolated"]:
         ink = ref_remove_isolated(ink, p["t0"])
     if p["id_edges"]:
@@ -39,7 +57,8 @@ def ref_lines(gb, **params):
 
 
 def kernel_lines(gb, **params):
-    """The same chain from the public kernels, one call each."""
+    """The same chain from the public kernels, one call each (for a G-buffer without background
+    and with ``far`` given, where the chain's depth is :func:`normalize_depth`'s)."""
     p = {**DEFAULTS, **params}
     D = K.normalize_depth(gb[L.Z], p["near"], p["far"])
     if p["dilation_iterations"]:
@@ -87,6 +106,8 @@ CASES = [
 @pytest.mark.parametrize("params", CASES)
 def test01_chain_is_the_composition_of_the_kernels(shape, params):
     gb = blocks(shape)
+    gb[L.Z] = np.where(np.isfinite(gb[L.Z]), gb[L.Z], 30.0)  # a far wall, no background
+    params = {**params, "far": params.get("far", 40.0)}
     np.testing.assert_array_equal(np.asarray(K.lines(gb, **params)), kernel_lines(gb, **params))
 
 

@@ -30,7 +30,8 @@ name                   type     default   meaning
 ``bright_fade``        float    0         fade lines out where the beauty's luminance exceeds
                                           this: full below it, none from twice it; 0 = off
 ``near``, ``far``      float    unset     depth range mapped to [0, 1]; unset = the frame's
-                                          finite ``Z`` range
+                                          nearest finite ``Z`` and the larger of its farthest
+                                          and 4x its nearest; background reads 2 (see below)
 =====================  =======  ========  ======================================================
 
 Why these defaults: with ``Z`` normalised over the frame's depth range, a depth step lights up
@@ -39,6 +40,14 @@ scenes at 640x480 this draws every silhouette as a clean 1-px line, while the st
 steps (the floor near the horizon, sphere rims) stay below it. ID and normal edges are off because
 they are 2 px thick (see :mod:`mi_npr.kernels.edges`); turn them on for touching or intersecting
 objects (scene 4) and for creases.
+
+Depth at any scale (issue 18, against eq. 5.1's plain normalisation): the background reads as
+``D = 2``, a full step beyond every finite pixel (the thesis's OpenGL depth buffer had its far
+plane behind the scene; with the frame's own range the farthest object pixel got the background's
+1 and its outline vanished), and with ``far`` unset the far bound is at least ``4 * near``, so a
+step counts against at least the depth where it happens: a lone sphere's whole outline, and
+nothing inside it from 50 radii on, at camera distances of 2 to 500 radii and scene scales of
+1e-3 to 1e3, with ``far`` given or not (test 80).
 
 Foliage (issue 8, thesis section 4.3): ``leaf_edges`` outlines every leaf primitive, which depth
 contours alone miss where leaves overlap at nearly equal depth (see
@@ -121,7 +130,8 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
     z, shape = float_image(_layer(gbuffer, L.Z, "depth"), L.Z)
     grid = Grid(shape)
 
-    depth = Field(z, grid, depth_normalizer(z, p["near"], p["far"]))
+    normalizer = depth_normalizer(z, p["near"], p["far"], relative=True, background=2.0)
+    depth = Field(z, grid, normalizer)
     for _ in range(p["dilation_iterations"]):
         d = dilated(depth, p["dilation_size"])
         dr.eval(d)
