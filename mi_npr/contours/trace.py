@@ -37,7 +37,8 @@ resolved: "its previous and following pixels don't have the same ID" is read as 
 neighbours ``i - 1`` and ``i + 1`` (mod 8) have the object's id (both lie in the current pixel's
 ring and are 4-neighbours of candidate ``i``); the departure pixel is coloured from the start, and
 the walk stops when no neighbour qualifies; it is *closed* when it stopped next to its departure
-pixel (or is a single pixel), else *open*. Colouring is per contour, so contours do not depend on
+pixel (or is a single pixel) *and* holds every pixel of its piece's border (the border follower's
+cycle), else *open* (issue 18: stopping next to the start after skipping pixels is not closing). Colouring is per contour, so contours do not depend on
 the order they are traced in. Each contour piece gets its own departure pixel (the first pixel of
 its border-follower contour) instead of one per object. Where it goes wrong, by construction:
 
@@ -437,11 +438,18 @@ def contours_from_grid(
             int(cyc.object_id[i]),
             _name(objects, int(cyc.object_id[i])),
             grid.xy(np.asarray(chain, np.int64)),
-            closed,
+            closed and _holds_piece(grid, chain, cyc.points[cyc.offsets[i] : cyc.offsets[i + 1]]),
             bool(cyc.is_hole[i]),
         )
         for i, (chain, closed) in zip(order, done, strict=True)
     ]
+
+
+def _holds_piece(grid: Grid, chain: list[int], piece: np.ndarray) -> bool:
+    """Whether a walk's chain holds every pixel of its piece's border (the border follower's
+    cycle ``piece``, (x, y) points): a walk that stopped next to its start but skipped part of
+    the piece is not closed (issue 18)."""
+    return bool(np.isin(grid.index(piece[:, 0], piece[:, 1]), np.asarray(chain)).all())
 
 
 def trace(
