@@ -123,7 +123,7 @@ def test08_stopping_next_to_the_start_is_not_closing():
             got = set(map(tuple, c.points.tolist()))
             if c.closed:
                 assert piece <= got
-            chain, ends_near = reference_walk(ids, tuple(b.points[0].tolist()))
+            _, ends_near = reference_walk(ids, tuple(b.points[0].tolist()))
             if ends_near and not piece <= got:
                 found += 1
                 assert not c.closed

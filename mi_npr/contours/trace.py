@@ -38,9 +38,10 @@ neighbours ``i - 1`` and ``i + 1`` (mod 8) have the object's id (both lie in the
 ring and are 4-neighbours of candidate ``i``); the departure pixel is coloured from the start, and
 the walk stops when no neighbour qualifies; it is *closed* when it stopped next to its departure
 pixel (or is a single pixel) *and* holds every pixel of its piece's border (the border follower's
-cycle), else *open* (issue 18: stopping next to the start after skipping pixels is not closing). Colouring is per contour, so contours do not depend on
-the order they are traced in. Each contour piece gets its own departure pixel (the first pixel of
-its border-follower contour) instead of one per object. Where it goes wrong, by construction:
+cycle), else *open* (issue 18: stopping next to the start after skipping pixels is not closing).
+Colouring is per contour, so contours do not depend on the order they are traced in. Each contour
+piece gets its own departure pixel (the first pixel of its border-follower contour) instead of one
+per object. Where it goes wrong, by construction:
 
 - the ring test sees only two of the candidate's four 4-neighbours, so a true contour pixel whose
   "not k" neighbour is the other two is skipped;
