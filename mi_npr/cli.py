@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from importlib import metadata
 from pathlib import Path
 
+from .params import cli_type
+
 PROG = "mi-npr"
 #: The foliage styles (mi_npr.foliage.styles.STYLES), listed here so --help needs no import.
 _STYLES = ("small_leaves", "large_leaves", "van_gogh", "childrens_book")
@@ -41,26 +43,6 @@ def _define(text: str) -> tuple[str, str]:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
-def _positive(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a positive integer")
-    return n
-
-
-def _non_negative(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        n = -1
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a non-negative integer")
-    return n
-
-
 def _define_argument(cmd: argparse.ArgumentParser) -> None:
     cmd.add_argument(
         "-D",
@@ -73,13 +55,17 @@ def _define_argument(cmd: argparse.ArgumentParser) -> None:
     )
 
 
-def _scene_batch_arguments(cmd: argparse.ArgumentParser) -> None:
+def _scene_batch_arguments(cmd: argparse.ArgumentParser, name: str) -> None:
     """The arguments of commands that render a batch of scenes into OUTDIR."""
     cmd.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
     cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
     _define_argument(cmd)
-    cmd.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
-    cmd.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    cmd.add_argument(
+        "--spp", type=cli_type(name, "--spp"), help="samples per pixel of the beauty image"
+    )
+    cmd.add_argument(
+        "--seed", type=cli_type(name, "--seed"), default=0, help="sampler seed (default 0)"
+    )
     cmd.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -94,12 +80,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     r = sub.add_parser("render", help="render scenes to multi-layer EXR + PNG")
-    _scene_batch_arguments(r)
+    _scene_batch_arguments(r, "render")
 
     c = sub.add_parser(
         "contours", help="apparent contours in red over the beauty render: PNG, SVG and EXR"
     )
-    _scene_batch_arguments(c)
+    _scene_batch_arguments(c, "contours")
     # The same names as mi_npr.contours.METHODS / ID_MODES (not imported: parsing needs no LLVM).
     c.add_argument(
         "--method",
@@ -119,10 +105,10 @@ def build_parser() -> argparse.ArgumentParser:
         "raytree",
         help="ray-tree signatures and classified edges (real/reflection/refraction/shadow)",
     )
-    _scene_batch_arguments(t)
+    _scene_batch_arguments(t, "raytree")
     t.add_argument(
         "--max-depth",
-        type=_positive,
+        type=cli_type("raytree", "--max-depth"),
         metavar="N",
         help="levels of the ray trees (default: the scene's npr_raytree max_depth, else 3)",
     )
@@ -139,9 +125,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="viewpoint quality: pb (eq. 1), curvature (eq. 2) or entropy (eq. 3)",
     )
     b.add_argument(
-        "--depth", type=_non_negative, default=4, help="subdivisions of the best triangle (4)"
+        "--depth",
+        type=cli_type("best-view", "--depth"),
+        default=4,
+        help="subdivisions of the best triangle (4)",
     )
-    b.add_argument("--res", type=_positive, default=128, help="ID buffer size, long side (128)")
+    b.add_argument(
+        "--res",
+        type=cli_type("best-view", "--res"),
+        default=128,
+        help="ID buffer size, long side (128)",
+    )
     b.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
     _define_argument(b)
     b.add_argument(
@@ -161,10 +155,23 @@ def build_parser() -> argparse.ArgumentParser:
     )
     f.add_argument("--style", required=True, choices=_STYLES, help="drawing style (Fig. 4.8)")
     f.add_argument("-o", "--output", required=True, metavar="SCENE.xml", help="scene file to write")
-    f.add_argument("--leaf-size", type=float, help="leaf primitive length (default: the style's)")
-    f.add_argument("--abstraction", type=float, help="normal mixing in [0, 1] (default: style's)")
-    f.add_argument("--hlps", type=_positive, metavar="K", help="number of HLPs (default: auto)")
-    f.add_argument("--seed", type=int, default=0, help="seed of HLPs and leaves (default 0)")
+    f.add_argument(
+        "--leaf-size",
+        type=cli_type("foliage", "--leaf-size"),
+        help="leaf primitive length (default: the style's)",
+    )
+    f.add_argument(
+        "--abstraction",
+        type=cli_type("foliage", "--abstraction"),
+        help="normal mixing in [0, 1] (default: style's)",
+    )
+    f.add_argument("--hlps", type=cli_type("foliage", "--hlps"), metavar="K", help="number of HLPs")
+    f.add_argument(
+        "--seed",
+        type=cli_type("foliage", "--seed"),
+        default=0,
+        help="seed of HLPs and leaves (default 0)",
+    )
     f.add_argument(
         "--leaves",
         choices=("components", "triangles"),

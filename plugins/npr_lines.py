@@ -98,7 +98,6 @@ Every scene of ``scenes_xml/`` takes it: ``mi-npr render scenes_xml/scene1.xml -
 from __future__ import annotations
 
 import json
-import math
 
 import mitsuba as mi
 
@@ -109,16 +108,10 @@ from mi_npr.gbuffer import GBuffer, to_numpy
 from mi_npr.integrator import NprIntegrator
 from mi_npr.kernels import LINES_PARAMS, lines
 from mi_npr.kernels.depth_lines import check_range
-from mi_npr.params import Param
-
-
-def _color(rgb: tuple[float, ...]) -> str | None:
-    ok = all(math.isfinite(v) and v >= 0 for v in rgb)
-    return None if ok else "must be finite and >= 0 (linear RGB)"
-
+from mi_npr.params import Param, rgb_color
 
 _LINE_COLOR = Param(
-    "line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)", _color
+    "line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)", rgb_color
 )
 _CHAIN = tuple(p.name for p in LINES_PARAMS)
 

@@ -117,7 +117,7 @@ BAD_INPUTS = [
         "npr_gbuffer: unknown parameter 'cc'",
     ),
     ("bad_define", scene_xml(BALL), ["-D", "width"], 2, "-D 'width': expected name=value"),
-    ("bad_spp", scene_xml(BALL), ["--spp", "0"], 2, "not a positive integer"),
+    ("bad_spp", scene_xml(BALL), ["--spp", "0"], 2, "argument --spp: '0': must be in 1..65536"),
 ]
 
 

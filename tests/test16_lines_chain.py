@@ -152,7 +152,7 @@ def test04_accepts_a_gbuffer_and_nan_never_spreads():
         ({"remove_isolated": "maybe"}, "parameter 'remove_isolated' = 'maybe'"),
         ({"dilation_size": float("inf")}, "parameter 'dilation_size' = inf: expected an integer"),
         ({"dilation_iterations": float("nan")}, "'dilation_iterations' = nan: expected an int"),
-        ({"c": 1e39}, "parameter 'c' = 1e+39: must be a finite number >= 0 (float32)"),
+        ({"c": 1e39}, "parameter 'c' = 1e+39: must be a finite number (float32)"),
         ({"far": 1e39}, "far"),
     ],
 )

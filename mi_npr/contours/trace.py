@@ -375,6 +375,21 @@ def _check_ids(object_id: Any) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.uint32)
 
 
+def check_only(only: Any) -> list[int] | None:
+    """``only`` (object ids to trace) as a list of ints, or an error naming it."""
+    if only is None:
+        return None
+    bad = ParameterError(f"only = {only!r}: expected an iterable of object ids (integers >= 0)")
+    if isinstance(only, (str, bytes)) or not isinstance(only, Iterable):
+        raise bad
+    out = []
+    for v in only:
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v < OUTSIDE:
+            raise bad
+        out.append(int(v))
+    return out
+
+
 def check_method(method: str) -> str:
     if method not in METHODS:
         raise ParameterError(f"method = {method!r}: expected one of {', '.join(METHODS)}")
@@ -474,6 +489,12 @@ def trace(
     [[[1, 1], [2, 1], [3, 1], [4, 1], [4, 2], [4, 3], [3, 3], [2, 3], [1, 3], [1, 2]]]
     """
     check_method(method)
+    if objects is not None and not isinstance(objects, Mapping):
+        raise ParameterError(
+            f"objects = {objects!r}: expected a mapping of object ids to names, "
+            f"got {type(objects).__name__}"
+        )
+    only = check_only(only)
     if isinstance(object_id, GBuffer):
         if objects is None:
             objects = object_id.objects

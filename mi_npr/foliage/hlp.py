@@ -66,6 +66,7 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 from ..io._atomic import atomic_output
+from ..params import check_arg, cli_param
 from .plant import Plant
 
 #: The iso-value of the surface: a lone blob of weight 1 has its ellipsoid as surface.
@@ -468,8 +469,9 @@ def build_hlps(
     centres lies inside the surface. An empty plant gives an empty :class:`HLPSet`."""
     if not (isinstance(inside, (int, float)) and 0 < inside <= 1):
         raise ParameterError(f"inside = {inside!r}: must lie in (0, 1]")
-    if k is not None and (isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1):
-        raise ParameterError(f"k = {k!r}: the number of HLPs must be a positive integer")
+    if k is not None:
+        # At most MAX_HLPS; k-means keeps at most one per leaf.
+        k = check_arg("build_hlps", replace(cli_param("foliage", "--hlps"), name="k"), k)
     if not len(plant):
         z = np.zeros((0, 3))
         return HLPSet(z, z, np.zeros((0, 3, 3)), np.zeros(0), ISO, f"{plant.name} HLPs")

@@ -9,6 +9,7 @@ import numpy as np
 from PIL import Image
 
 from ..errors import ParameterError
+from ..params import MAX_RES
 from ._atomic import atomic_output
 
 
@@ -38,6 +39,12 @@ def write_png(path: str | os.PathLike[str], image: np.ndarray, linear: bool = Tr
     a = np.asarray(image)
     if a.ndim not in (2, 3) or (a.ndim == 3 and a.shape[-1] not in (1, 3, 4)):
         raise ParameterError(f"{path}: cannot write an image of shape {a.shape} as PNG")
+    if a.size == 0:
+        raise ParameterError(f"{path}: cannot write an empty image (shape {a.shape}) as PNG")
+    if a.dtype.kind not in "buif":
+        raise ParameterError(f"{path}: cannot write an image of dtype {a.dtype} as PNG")
+    if max(a.shape[:2]) > MAX_RES:
+        raise ParameterError(f"{path}: image {a.shape[1]} x {a.shape[0]} is too large for PNG")
     if a.ndim == 3 and a.shape[-1] == 1:
         a = a[..., 0]
     rgb8 = to_rgb8(a, linear)

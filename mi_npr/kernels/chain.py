@@ -125,6 +125,11 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
     >>> np.asarray(ink).shape                                                # doctest: +SKIP
     (120, 160)
     """
+    if not isinstance(gbuffer, Mapping) and not hasattr(gbuffer, "names"):
+        raise ParameterError(
+            f"lines: expected a GBuffer (or a mapping of layer names to (H, W) arrays), got "
+            f"{type(gbuffer).__name__}; for a depth image alone use lines({{'Z': Z}})"
+        )
     p = check_values("lines", LINES_PARAMS, params)
     check_range(p["near"], p["far"], "lines")
     z, shape = float_image(_layer(gbuffer, L.Z, "depth"), L.Z)

@@ -27,6 +27,7 @@ from typing import Any
 import drjit as dr
 from drjit.llvm.ad import Float, Float64, TensorXf
 
+from ..params import MAX_ITERATIONS
 from ._stencil import Field, Grid, float_image, require, sanitize_depth, tensor, window
 
 #: Largest window: an n x n window is n * n gathers unrolled into one kernel.
@@ -45,7 +46,10 @@ def window_size(v: Any) -> str | None:
 
 
 def iteration_count(v: Any) -> str | None:
-    return None if _integer(v) and v >= 0 else "must be an integer >= 0"
+    """The rule for ``iterations``: an integer in 0..MAX_ITERATIONS."""
+    if not _integer(v) or v < 0:
+        return "must be an integer >= 0"
+    return None if v <= MAX_ITERATIONS else f"must be at most {MAX_ITERATIONS}"
 
 
 def dilated(D: Field, size: int) -> Float:

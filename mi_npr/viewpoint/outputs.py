@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import io
 from ..errors import SceneError
+from ..params import check_arg, cli_param
 from ..render import render
 from ..scene import camera_of, load_scene, merge_defines, sensor_of
 from .camera import sensor_xml, sphere_image
@@ -50,6 +51,8 @@ def write_best_view(
     the :class:`BestView` and the written paths by kind (``sensor``, ``render``, ``sphere``).
     """
     check_measure(measure)
+    depth = check_arg("write_best_view", cli_param("best-view", "--depth"), depth)
+    res = check_arg("write_best_view", cli_param("best-view", "--res"), res)
     scene = load_scene(scene_path, merge_defines(defines, more))
     try:
         check_shapes(scene)

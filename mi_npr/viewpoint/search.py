@@ -46,6 +46,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError, SceneError
+from ..params import check_arg, cli_param
 from ..scene import camera_of, load_scene, sensor_of, shape_bbox
 from . import idbuffer
 from .measures import MEASURES, Topology, check_measure
@@ -330,8 +331,8 @@ def best_view(
     >>> bv.origin, bv.quality, bv.evaluations                         # doctest: +SKIP
     """
     check_measure(measure)
-    if isinstance(depth, bool) or not isinstance(depth, (int, np.integer)) or depth < 0:
-        raise ParameterError(f"depth = {depth!r}: must be a non-negative integer")
+    depth = check_arg("best_view", cli_param("best-view", "--depth"), depth)
+    res = check_arg("best_view", cli_param("best-view", "--res"), res)
     scene = load_scene(scene)
     check_shapes(scene)
     view = viewing(scene, target, radius, res, fov, sensor, ignore)
