@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, check_input_file
 from .io._atomic import atomic_output
 
 
@@ -162,8 +162,7 @@ def read_ply(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, dict
     """``(V, F, extra)``: positions, triangles and any other per-vertex properties by name
     (``nx ny nz`` normals, ...)."""
     p = Path(path)
-    if not p.is_file():
-        raise InputError(f"{p}: no such file")
+    check_input_file(p)
     data = p.read_bytes()
     end = data.find(b"end_header")
     if not data.startswith(b"ply") or end < 0:

@@ -64,7 +64,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from ..errors import InputError, ParameterError
+from ..errors import InputError, ParameterError, check_input_file
 from ..io._atomic import atomic_output
 from ..params import check_arg, cli_param
 from .plant import Plant
@@ -390,8 +390,7 @@ class HLPSet:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> HLPSet:
         p = Path(path)
-        if not p.is_file():
-            raise InputError(f"{p}: no such file")
+        check_input_file(p)
         try:
             d = json.loads(p.read_text(encoding="utf-8"))
         except (UnicodeDecodeError, json.JSONDecodeError) as e:
