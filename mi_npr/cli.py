@@ -1,7 +1,9 @@
 """The ``mi-npr`` command: parses arguments and calls the library, nothing else.
 
 Exit codes: 0 all succeeded, 1 something failed (each failure reported on one line), 2 usage
-error. ``--traceback`` shows the Python traceback of an unexpected error (for bug reports).
+error, 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); both remove the temporary files of
+unfinished outputs. ``--traceback`` shows the Python traceback of an unexpected error (for bug
+reports).
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
 from collections.abc import Sequence
 from importlib import metadata
@@ -185,6 +188,12 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _remove_temps() -> None:
+    """Temporary files of unfinished outputs (``finally`` blocks removed most already)."""
+    if "mi_npr.io._atomic" in sys.modules:
+        sys.modules["mi_npr.io._atomic"].remove_live_temps()
+
+
 def _fail(message: str, code: int = 1) -> int:
     print(f"{PROG}: error: {message}", file=sys.stderr)
     return code
@@ -250,10 +259,11 @@ def _cmd_raytree(args: argparse.Namespace) -> int:
     def job(scene: str) -> list[Path]:
         gb = mi_npr.raytree.render(scene, max_depth=args.max_depth, seed=args.seed, **options)
         stem = Path(scene).stem
-        return [
-            mi_npr.io.write_exr(outdir / f"{stem}.exr", gb),
-            mi_npr.io.write_png(outdir / f"{stem}_raytree.png", gb.beauty),
-        ]
+        with mi_npr.io.output_set():
+            return [
+                mi_npr.io.write_exr(outdir / f"{stem}.exr", gb),
+                mi_npr.io.write_png(outdir / f"{stem}_raytree.png", gb.beauty),
+            ]
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
     return _report(results)
@@ -353,8 +363,24 @@ COMMANDS = {
 }
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that every ``finally`` runs (temporary files go)."""
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise Terminated()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        return _run(args)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         import mi_npr
 
@@ -366,7 +392,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             mi_npr.set_variant(args.variant)
         return COMMANDS[args.command](args)
     except KeyboardInterrupt:
+        _remove_temps()
         return _fail("interrupted", 130)
+    except Terminated:
+        _remove_temps()
+        return _fail("terminated", 128 + signal.SIGTERM)
     except BrokenPipeError:  # `mi-npr info x.exr | head`: the reader left, nothing to report
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0

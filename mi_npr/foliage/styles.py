@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..io import check_writable_dir, write_text
+from ..io import check_writable_dir, output_set, write_text
 from ..meshes import write_ply
 from ..params import check_arg, cli_param
 from .hlp import HLPSet, build_hlps
@@ -335,10 +335,11 @@ def write_foliage_scene(
     rel = {k: html.escape(p, quote=True) for k, p in rel.items()}  # & < > " in names
     wood = rel["wood"] if plant.wood is not None else None
     text = scene_xml(st, rel["plant"], rel["hlps"], plant, wood, leaf_size, abstraction, seed)
-    written = [plant.save(files["plant"]), h.save(files["hlps"])]
-    if plant.wood is not None:
-        written.append(write_ply(files["wood"], *plant.wood))
-    written.append(write_text(out, text))
+    with output_set():  # the scene and its assets together, or none of them
+        written = [plant.save(files["plant"]), h.save(files["hlps"])]
+        if plant.wood is not None:
+            written.append(write_ply(files["wood"], *plant.wood))
+        written.append(write_text(out, text))
     return written
 
 

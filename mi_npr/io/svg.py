@@ -36,7 +36,7 @@ from PIL import Image
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
 from ..params import MAX_RES, Param, check_arg, integer_range, real_range, rgb_color
-from ._atomic import atomic_output, check_writable_dir
+from ._atomic import atomic_output, check_writable_dir, output_set
 from .png import linear_to_srgb, to_rgb8
 
 _RESERVED = {"beauty", "contours"}
@@ -193,17 +193,18 @@ def write_contour_outputs(
         color = tuple(float(v) for v in gb.metadata["mi_npr/contour_color"].split(","))
     except (KeyError, ValueError):
         color = (1.0, 0.0, 0.0)
-    svg = write_svg(
-        d / f"{stem}_contours.svg",
-        list(contours),
-        gb.width,
-        gb.height,
-        beauty=raw_beauty(gb) if beauty_in_svg else None,
-        color=color,
-        title=gb.metadata.get("mi_npr/scene", stem),
-    )
-    return [
-        write_exr(d / f"{stem}.exr", gb),
-        write_png(d / f"{stem}_contours.png", gb.beauty),
-        svg,
-    ]
+    with output_set():  # the three files together, or none of them
+        svg = write_svg(
+            d / f"{stem}_contours.svg",
+            list(contours),
+            gb.width,
+            gb.height,
+            beauty=raw_beauty(gb) if beauty_in_svg else None,
+            color=color,
+            title=gb.metadata.get("mi_npr/scene", stem),
+        )
+        return [
+            write_exr(d / f"{stem}.exr", gb),
+            write_png(d / f"{stem}_contours.png", gb.beauty),
+            svg,
+        ]
