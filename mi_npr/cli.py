@@ -188,6 +188,13 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _t(text: object) -> str:
+    """Control characters escaped (names from files reach the terminal here)."""
+    from .errors import for_terminal
+
+    return for_terminal(text)
+
+
 def _remove_temps() -> None:
     """Temporary files of unfinished outputs (``finally`` blocks removed most already)."""
     if "mi_npr.io._atomic" in sys.modules:
@@ -195,7 +202,7 @@ def _remove_temps() -> None:
 
 
 def _fail(message: str, code: int = 1) -> int:
-    print(f"{PROG}: error: {message}", file=sys.stderr)
+    print(f"{PROG}: error: {_t(message)}", file=sys.stderr)
     return code
 
 
@@ -273,7 +280,7 @@ def _report(results: list) -> int:
     for res in results:
         if res.ok:
             names = ", ".join(str(o) for o in res.outputs)
-            print(f"{res.item}: {names} ({res.seconds:.2f} s)")
+            print(_t(f"{res.item}: {names}") + f" ({res.seconds:.2f} s)")
         else:
             _fail(res.error)
     failed = sum(not r.ok for r in results)
@@ -300,10 +307,10 @@ def _cmd_best_view(args: argparse.Namespace) -> int:
         print(json.dumps(info, indent=2))
         return 0
     o = ", ".join(f"{v:.4g}" for v in best.origin)
-    print(f"{args.scene}: best view ({args.measure}) at ({o}), quality {best.quality:.6g}")
+    print(f"{_t(args.scene)}: best view ({args.measure}) at ({o}), quality {best.quality:.6g}")
     print(f"  {best.evaluations} viewpoints rated at {best.size[0]}x{best.size[1]}")
     for path in outputs.values():
-        print(f"  wrote {path}")
+        print(f"  wrote {_t(path)}")
     return 0
 
 
@@ -320,7 +327,7 @@ def _cmd_foliage(args: argparse.Namespace) -> int:
         seed=args.seed,
         leaves=args.leaves,
     )
-    print(f"{args.input}: {', '.join(str(p) for p in written)} ({len(plant)} leaves)")
+    print(_t(f"{args.input}: {', '.join(str(p) for p in written)}") + f" ({len(plant)} leaves)")
     return 0
 
 
@@ -331,25 +338,26 @@ def _cmd_info(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(info, indent=2))
         return 0
-    print(f"{args.file}: {info['width']} x {info['height']}")
+    print(f"{_t(args.file)}: {info['width']} x {info['height']}")
     print("layers:")
     for layer in info["layers"]:
         rng = "empty" if layer["min"] is None else f"[{layer['min']:.6g}, {layer['max']:.6g}]"
         extra = f", {layer['non_finite']} non-finite" if layer["non_finite"] else ""
-        print(f"  {layer['name']:<18} {layer['type']:<8} {rng}{extra}  {layer['meaning']}")
+        name, meaning = _t(layer["name"]), _t(layer["meaning"])
+        print(f"  {name:<18} {layer['type']:<8} {rng}{extra}  {meaning}")
     print("objects:")
     print("  0: background")
     for k, v in info["objects"].items():
-        print(f"  {k}: {v}")
+        print(f"  {k}: {_t(v)}")
     cam = info["camera"]
     if cam:
         fov = "n/a" if cam["fov"] is None else f"{cam['fov']:.4g} deg"
         w, h = cam["resolution"]
-        print(f"camera: {cam['kind']}, {w}x{h}, fov {fov}")
+        print(f"camera: {_t(cam['kind'])}, {w}x{h}, fov {fov}")
         for row in cam["to_world"]:
             print("  " + " ".join(f"{v:10.4f}" for v in row))
     for k, v in info["metadata"].items():
-        print(f"{k}: {v}")
+        print(f"{_t(k)}: {_t(v)}")
     return 0
 
 

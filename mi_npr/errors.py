@@ -67,3 +67,14 @@ def check_input_file(path: str | os.PathLike[str], error: type[NprError] = Input
     if not os.access(p, os.R_OK):
         raise error(f"{p}: permission denied")
     return p
+
+
+def for_terminal(text: object) -> str:
+    """``text`` with control characters escaped (``\\x1b``, ``\\n``, ``\\u202e``...), for
+    everything that reaches a terminal: names from scenes and files (object ids, layer names,
+    metadata, paths) could otherwise set the terminal's title and colours or split a listing.
+    The one helper for it (issue 18)."""
+    s = str(text)
+    if s.isprintable():
+        return s
+    return "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode() for ch in s)
