@@ -46,6 +46,26 @@ def _define(text: str) -> tuple[str, str]:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def _size(text: str) -> str:
+    from .errors import ParameterError
+    from .memory import parse_size
+
+    try:
+        parse_size(text)
+    except ParameterError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a size such as 4G or 512M") from None
+    return text
+
+
+def _memory_argument(cmd: argparse.ArgumentParser) -> None:
+    cmd.add_argument(
+        "--max-memory",
+        type=_size,
+        metavar="SIZE",
+        help="refuse renders estimated above SIZE (e.g. 4G; default: the memory available)",
+    )
+
+
 def _define_argument(cmd: argparse.ArgumentParser) -> None:
     cmd.add_argument(
         "-D",
@@ -70,6 +90,7 @@ def _scene_batch_arguments(cmd: argparse.ArgumentParser, name: str) -> None:
         "--seed", type=cli_type(name, "--seed"), default=0, help="sampler seed (default 0)"
     )
     cmd.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _memory_argument(cmd)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -149,6 +170,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="an object whose pixels count as background, e.g. a floor (repeatable)",
     )
     b.add_argument("--json", action="store_true", help="print the result as JSON")
+    _memory_argument(b)
 
     f = sub.add_parser("foliage", help="turn a plant (PLY/OBJ) into a foliage scene in a style")
     f.add_argument(
@@ -398,6 +420,11 @@ def _run(args: argparse.Namespace) -> int:
             raise mi_npr._api.STARTUP_ERROR
         if args.variant:
             mi_npr.set_variant(args.variant)
+        if getattr(args, "max_memory", None):
+            from .memory import ENV, set_max_memory
+
+            set_max_memory(args.max_memory)
+            os.environ[ENV] = args.max_memory  # worker processes too
         return COMMANDS[args.command](args)
     except KeyboardInterrupt:
         _remove_temps()

@@ -26,6 +26,10 @@ class InputError(NprError):
     """An input file (EXR, mesh, ...) cannot be read or holds something unexpected."""
 
 
+class MemoryLimitError(NprError):
+    """A render would need more memory than the process may use (see :mod:`mi_npr.memory`)."""
+
+
 class OutputError(NprError):
     """An output cannot be written (directory missing or not writable, disk full, ...)."""
 

@@ -26,6 +26,7 @@ from . import layers as L
 from ._version import __version__
 from .errors import ParameterError, SceneError, one_line
 from .gbuffer import GBuffer, to_numpy
+from .memory import check_render, render_passes
 from .scene import (
     ObjectTable,
     camera_of,
@@ -146,10 +147,16 @@ def gbuffer_layers(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, shade
 
 
 def beauty_layers(
-    scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Integrator, spp: int, seed: int
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    integrator: mi.Integrator,
+    spp: int,
+    seed: int,
+    passes: int = 1,
 ) -> dict[str, np.ndarray]:
-    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B."""
-    img = integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
+    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B
+    (in ``passes`` renders when memory asks for it, :mod:`mi_npr.memory`)."""
+    img = render_passes(integrator, scene, sensor, spp, seed, passes)
     a = to_numpy(img)
     if a.ndim != 3 or a.shape[-1] < 3:
         # Mono variants or odd films: replicate the first channel.
@@ -174,12 +181,13 @@ def render_gbuffer(
     if spp is not None and (not isinstance(spp, int) or spp < 1):
         raise ParameterError(f"spp = {spp!r}: must be a positive integer")
     sensor = sensor_of(scene, sensor)
+    passes = check_render(sensor, beauty, spp, seed)  # table checks, memory (issue 18)
     with _LOCK:
         table = object_table(scene)
         try:
             layers = gbuffer_layers(scene, sensor, table, shade=beauty is None)
             if beauty is not None:
-                layers.update(beauty_layers(scene, sensor, beauty, spp or 0, seed))
+                layers.update(beauty_layers(scene, sensor, beauty, spp or 0, seed, passes))
         except (ParameterError, SceneError):
             raise
         except RuntimeError as e:
