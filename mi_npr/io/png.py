@@ -24,12 +24,14 @@ def to_rgb8(image: np.ndarray, linear: bool = True) -> np.ndarray:
     a = np.asarray(image)
     if a.dtype == np.uint8:
         return a
+    # NaN is black, +inf white, -inf black (issue 18: a NaN cast to uint8 is undefined).
+    clean = np.nan_to_num(a.astype(np.float32), nan=0.0, posinf=1.0, neginf=0.0)
     if linear:
-        a = linear_to_srgb(a)
+        a = linear_to_srgb(clean)
         if a.ndim == 3 and a.shape[-1] == 4:  # alpha is not colour: store it as is
-            a[..., 3] = np.clip(np.asarray(image)[..., 3], 0.0, 1.0)
+            a[..., 3] = np.clip(clean[..., 3], 0.0, 1.0)
     else:
-        a = np.clip(np.nan_to_num(a.astype(np.float32), nan=0.0), 0.0, 1.0)
+        a = np.clip(clean, 0.0, 1.0)
     return (a * 255.0 + 0.5).astype(np.uint8)
 
 
