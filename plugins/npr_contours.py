@@ -29,7 +29,7 @@ real objects from their reflections and refractions.
    * - ``color``
      - rgb
      - ``1, 0, 0``
-     - Linear RGB of the contour pixels.
+     - Linear RGB of the contour pixels (finite, >= 0, like ``npr_lines``'s ``line_color``).
 
 Channels (``aov_names()``, after ``R G B``): ``contour`` (object id on contour pixels, 0
 elsewhere, in the ids of ``id_mode``; their names are in the GBuffer's metadata

@@ -33,7 +33,7 @@ is the ``lines`` layer, and it is composited onto the nested integrator's beauty
    * - ``dilation_iterations``
      - integer
      - 1
-     - Selective-dilation passes; 0 turns the pre-filter off.
+     - Selective-dilation passes, 0..64; 0 turns the pre-filter off.
    * - ``remove_isolated``
      - boolean
      - true

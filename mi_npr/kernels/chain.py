@@ -20,7 +20,7 @@ name                   type     default   meaning
                                           ``t / c`` and is black from ``(1 + t) / c``
 ``t0``                 float    0.5       eq. 5.2 threshold in [0, 1]
 ``dilation_size``      int      3         selective-dilation window, odd, 3..15
-``dilation_iterations`` int     1         selective-dilation passes (0 = no pre-filter)
+``dilation_iterations`` int     1         selective-dilation passes, 0..64 (0 = none)
 ``remove_isolated``    bool     true      apply eq. 5.2
 ``id_edges``           bool     false     add object-ID edges (2 px thick)
 ``normal_edges``       float    0         add creases sharper than this angle, in degrees, on one
