@@ -173,3 +173,15 @@ def test09_a_nested_bsdf_is_an_error_naming_it(tmp_path):
     )
     assert r.returncode == 1
     assert "npr_lines: a nested <bsdf> (oops)" in r.stderr and "Traceback" not in r.stderr
+
+
+def test10_leaf_size_has_a_lower_bound_relative_to_the_plant(tmp_path):
+    """``--leaf-size 1e-6`` wrote a scene that could never render."""
+    from mi_npr import foliage as fo
+
+    plant = fo.Plant.from_points([[0, 0, 0], [1, 1, 1]], [[0, 1, 0], [0, 1, 0]], sizes=0.1)
+    with pytest.raises(mi_npr.ParameterError, match="leaf_size = 1e-06: too small"):
+        fo.styles.write_foliage_scene(tmp_path / "x.xml", plant, "van_gogh", leaf_size=1e-6)
+    with pytest.raises(mi_npr.ParameterError, match="leaf_size"):
+        fo.styles.write_foliage_scene(tmp_path / "x.xml", plant, "van_gogh", leaf_size=math.nan)
+    assert not list(tmp_path.iterdir())
