@@ -195,3 +195,15 @@ def render_passes(
         a = np.asarray(img, dtype=np.float64) * n
         acc = a if acc is None else acc + a
     return (acc / total).astype(np.float32)
+
+
+def check_images(width: int, height: int, images: int, what: str) -> None:
+    """The memory check of a pass that holds ``images`` images of ``width x height`` pixels at
+    once (best-view's batched ID buffers): :class:`MemoryLimitError` over the bound."""
+    need = int(width) * int(height) * int(images) * PIXEL_BYTES
+    bound, figure = available()
+    if bound is not None and need > bound:
+        raise MemoryLimitError(
+            f"{images} {what} of {width} x {height} need about {_gib(need)}, more than "
+            f"{_gib(bound)} ({figure}): lower the resolution, or raise the bound with --max-memory"
+        )

@@ -131,3 +131,14 @@ def test07_spp_and_seed_are_checked_from_the_table(tmp_path):
     ):
         with pytest.raises(mi_npr.ParameterError, match=f"'{name}'"):
             mi_npr.render(path, **kw)
+
+
+def test08_best_view_id_buffers_are_checked(tmp_path):
+    scene = tmp_path / "ball.xml"
+    scene.write_text(scene_xml(BALL))
+    r = run_cli(
+        "best-view", str(scene), "--measure", "pb", "-o", str(tmp_path / "o"),
+        "--res", "20000", "--max-memory", "2G",
+    )  # fmt: skip
+    assert r.returncode == 1 and "6 ID buffers of 20000 x 15000" in r.stderr, r.stderr
+    assert "(--max-memory)" in r.stderr
