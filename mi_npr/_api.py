@@ -7,7 +7,14 @@ import mitsuba as mi
 
 from . import _llvm, _variant, layers
 from ._variant import DEFAULT_VARIANT, register_plugins, set_variant
-from .errors import InputError, NprError, OutputError, ParameterError, SceneError
+from .errors import (
+    InputError,
+    MemoryLimitError,
+    NprError,
+    OutputError,
+    ParameterError,
+    SceneError,
+)
 from .gbuffer import Camera, GBuffer
 
 #: Why the requested variant could not be activated at import (the ``mi-npr`` command only,
@@ -35,6 +42,7 @@ __all__ = [
     "Camera",
     "GBuffer",
     "InputError",
+    "MemoryLimitError",
     "NprError",
     "OutputError",
     "ParameterError",

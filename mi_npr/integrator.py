@@ -96,6 +96,21 @@ def develop_into_film(film: mi.Film, gb: GBuffer, aovs: Sequence[str]) -> mi.Ten
     return _interleave(planar, len(planes), h, w)  # R G B (A) aovs, like Mitsuba's develop()
 
 
+def _refuse_other_objects(plugin: str, props: mi.Properties) -> None:
+    """A nested object that is not an integrator (a ``<bsdf>`` put inside the integrator by
+    mistake) is an error naming it, not silently ignored (issue 18)."""
+    kinds = ("BSDF", "Emitter", "Shape", "Texture", "Sensor", "Medium", "Film", "Sampler")
+    for key in props.keys():
+        v = props.get(key)
+        if isinstance(v, mi.Object) and not isinstance(v, mi.Integrator):
+            kind = next((k.lower() for k in kinds if isinstance(v, getattr(mi, k))), "object")
+            name = v.id() if hasattr(v, "id") and v.id() else v.class_name()
+            raise ParameterError(
+                f"{plugin}: a nested <{kind}> ({name}) is not allowed inside it; "
+                "only one nested (beauty) integrator is"
+            )
+
+
 class NprIntegrator(mi.SamplingIntegrator):
     """Common machinery; see the module docstring. Not registered as a plugin itself."""
 
@@ -106,6 +121,7 @@ class NprIntegrator(mi.SamplingIntegrator):
         require_jit(self.PLUGIN)
         super().__init__(props)
         nested = [props.get(k) for k in props.keys() if isinstance(props.get(k), mi.Integrator)]
+        _refuse_other_objects(self.PLUGIN, props)
         if len(nested) > 1:
             raise ParameterError(f"{self.PLUGIN}: at most one nested (beauty) integrator")
         self.beauty: mi.Integrator | None = nested[0] if nested else None

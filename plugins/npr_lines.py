@@ -35,7 +35,7 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
    * - ``dilation_iterations``
      - integer
      - 1
-     - Selective-dilation passes; 0 turns the pre-filter off.
+     - Selective-dilation passes, 0..64; 0 turns the pre-filter off.
    * - ``remove_isolated``
      - boolean
      - true
@@ -82,9 +82,9 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
    * - ``near``, ``far``
      - float
      - unset
-     - Camera depths mapped to 0 and 1. Unset: the frame's nearest and farthest finite depth.
-       The background is always 1, so the farthest object's contour against the background
-       needs a ``far`` beyond the scene.
+     - Camera depths mapped to 0 and 1. Unset: the frame's nearest finite depth and the larger
+       of its farthest and 4x its nearest. The background is a full step beyond every object
+       pixel whatever ``far`` is (see :mod:`mi_npr.kernels.chain`).
    * - (nested integrator)
      - integrator
      - none
@@ -119,7 +119,6 @@ Every scene of ``scenes_xml/`` takes it: ``mi-npr render scenes_xml/scene1.xml -
 from __future__ import annotations
 
 import json
-import math
 
 import mitsuba as mi
 
@@ -132,16 +131,10 @@ from mi_npr.gbuffer import GBuffer
 from mi_npr.integrator import NprIntegrator
 from mi_npr.kernels import LINES_PARAMS
 from mi_npr.kernels.depth_lines import check_range
-from mi_npr.params import Param, coerce
-
-
-def _color(rgb: tuple[float, ...]) -> str | None:
-    ok = all(math.isfinite(v) and v >= 0 for v in rgb)
-    return None if ok else "must be finite and >= 0 (linear RGB)"
-
+from mi_npr.params import Param, coerce, rgb_color
 
 _LINE_COLOR = Param(
-    "line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)", _color
+    "line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)", rgb_color
 )
 #: Measured (issue 19, cornell_box and scene4 at 320x240): the mean |error| of the lines layer
 #: against 8 x 8 rays per pixel, relative to its mean ink, is 0.86-1.5 with 1 ray, 0.25-0.33

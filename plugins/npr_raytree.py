@@ -63,13 +63,11 @@ import mitsuba as mi
 from mi_npr import layers as L
 from mi_npr.gbuffer import GBuffer
 from mi_npr.integrator import NprIntegrator
-from mi_npr.params import Param
+from mi_npr.params import Param, integer_range
 from mi_npr.raytree import LAYERS, add_raytree
 from mi_npr.raytree.tracer import MAX_DEPTH
 
-
-def _depth(v: int) -> str | None:
-    return None if 1 <= v <= MAX_DEPTH else f"must be in 1..{MAX_DEPTH}"
+_depth = integer_range(1, MAX_DEPTH)
 
 
 class NprRayTreeIntegrator(NprIntegrator):

@@ -110,5 +110,5 @@ def test04_svg_options_and_odd_names(tmp_path):
     assert root.find(f"{SVG}g").get("stroke-width") == "2"
     with pytest.raises(mi_npr.ParameterError, match="beauty"):
         svg_document(cs, 5, 5, beauty=np.zeros((4, 5, 3)))
-    with pytest.raises(mi_npr.ParameterError, match="size"):
+    with pytest.raises(mi_npr.ParameterError, match="width"):
         svg_document(cs, 0, 5)

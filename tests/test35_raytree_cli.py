@@ -66,8 +66,8 @@ def test03_paper_scenes_with_defines(scenes, tmp_path):
 @pytest.mark.parametrize(
     ("extra", "code", "expected"),
     [
-        (["--max-depth", "0"], 2, "not a positive integer"),
-        (["--max-depth", "99"], 1, "max_depth = 99: must be in 1..31"),
+        (["--max-depth", "0"], 2, "argument --max-depth: '0': must be in 1..31"),
+        (["--max-depth", "99"], 2, "argument --max-depth: '99': must be in 1..31"),
         (["-D", "width"], 2, "expected name=value"),
     ],
 )

@@ -37,9 +37,11 @@ resolved: "its previous and following pixels don't have the same ID" is read as 
 neighbours ``i - 1`` and ``i + 1`` (mod 8) have the object's id (both lie in the current pixel's
 ring and are 4-neighbours of candidate ``i``); the departure pixel is coloured from the start, and
 the walk stops when no neighbour qualifies; it is *closed* when it stopped next to its departure
-pixel (or is a single pixel), else *open*. Colouring is per contour, so contours do not depend on
-the order they are traced in. Each contour piece gets its own departure pixel (the first pixel of
-its border-follower contour) instead of one per object. Where it goes wrong, by construction:
+pixel (or is a single pixel) *and* holds every pixel of its piece's border (the border follower's
+cycle), else *open* (issue 18: stopping next to the start after skipping pixels is not closing).
+Colouring is per contour, so contours do not depend on the order they are traced in. Each contour
+piece gets its own departure pixel (the first pixel of its border-follower contour) instead of one
+per object. Where it goes wrong, by construction:
 
 - the ring test sees only two of the candidate's four 4-neighbours, so a true contour pixel whose
   "not k" neighbour is the other two is skipped;
@@ -373,6 +375,21 @@ def _check_ids(object_id: Any) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.uint32)
 
 
+def check_only(only: Any) -> list[int] | None:
+    """``only`` (object ids to trace) as a list of ints, or an error naming it."""
+    if only is None:
+        return None
+    bad = ParameterError(f"only = {only!r}: expected an iterable of object ids (integers >= 0)")
+    if isinstance(only, (str, bytes)) or not isinstance(only, Iterable):
+        raise bad
+    out = []
+    for v in only:
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v < OUTSIDE:
+            raise bad
+        out.append(int(v))
+    return out
+
+
 def check_method(method: str) -> str:
     if method not in METHODS:
         raise ParameterError(f"method = {method!r}: expected one of {', '.join(METHODS)}")
@@ -437,11 +454,18 @@ def contours_from_grid(
             int(cyc.object_id[i]),
             _name(objects, int(cyc.object_id[i])),
             grid.xy(np.asarray(chain, np.int64)),
-            closed,
+            closed and _holds_piece(grid, chain, cyc.points[cyc.offsets[i] : cyc.offsets[i + 1]]),
             bool(cyc.is_hole[i]),
         )
         for i, (chain, closed) in zip(order, done, strict=True)
     ]
+
+
+def _holds_piece(grid: Grid, chain: list[int], piece: np.ndarray) -> bool:
+    """Whether a walk's chain holds every pixel of its piece's border (the border follower's
+    cycle ``piece``, (x, y) points): a walk that stopped next to its start but skipped part of
+    the piece is not closed (issue 18)."""
+    return bool(np.isin(grid.index(piece[:, 0], piece[:, 1]), np.asarray(chain)).all())
 
 
 def trace(
@@ -465,6 +489,12 @@ def trace(
     [[[1, 1], [2, 1], [3, 1], [4, 1], [4, 2], [4, 3], [3, 3], [2, 3], [1, 3], [1, 2]]]
     """
     check_method(method)
+    if objects is not None and not isinstance(objects, Mapping):
+        raise ParameterError(
+            f"objects = {objects!r}: expected a mapping of object ids to names, "
+            f"got {type(objects).__name__}"
+        )
+    only = check_only(only)
     if isinstance(object_id, GBuffer):
         if objects is None:
             objects = object_id.objects

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .. import layers as L
 from ..gbuffer import GBuffer
-from ._atomic import atomic_output, check_writable_dir
+from ._atomic import atomic_output, check_writable_dir, output_set
 from .exr import describe, read_exr, write_exr
 from .png import linear_to_srgb, to_rgb8, write_png
 from .svg import svg_document, write_contour_outputs, write_svg
@@ -33,9 +33,10 @@ def write_outputs(
     sheet = None
     if L.LINES in gb:
         sheet = drawing(gb, INK if line_color is None else line_color, paper or PAPER)
-    out = [write_exr(d / f"{stem}.exr", gb), write_png(d / f"{stem}.png", gb.beauty)]
-    if sheet is not None:
-        out.append(write_png(d / f"{stem}_lines.png", sheet))
+    with output_set():  # all or none
+        out = [write_exr(d / f"{stem}.exr", gb), write_png(d / f"{stem}.png", gb.beauty)]
+        if sheet is not None:
+            out.append(write_png(d / f"{stem}_lines.png", sheet))
     return out
 
 
@@ -44,6 +45,7 @@ __all__ = [
     "check_writable_dir",
     "describe",
     "linear_to_srgb",
+    "output_set",
     "read_exr",
     "svg_document",
     "to_rgb8",

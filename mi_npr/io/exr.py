@@ -24,8 +24,11 @@ bit for bit, except that the file always records the writer's ``mi_npr/version``
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +37,7 @@ import OpenEXR
 
 from .. import layers as L
 from .._version import __version__
-from ..errors import InputError, NprError
+from ..errors import InputError, NprError, check_input_file
 from ..gbuffer import Camera, GBuffer
 from ._atomic import atomic_output
 
@@ -86,21 +89,48 @@ def _order(names: list[str], stored: str | None) -> list[str]:
     return canon + sorted(set(names) - set(canon))
 
 
+#: The first four bytes of every OpenEXR file.
+_MAGIC = bytes([0x76, 0x2F, 0x31, 0x01])
+
+
+@contextlib.contextmanager
+def quiet_library() -> Iterator[None]:
+    """Silence file descriptors 1 and 2 for the block: the OpenEXR library prints its own
+    messages about a damaged file there (on stdout too). Python's streams are flushed first so
+    nothing of ours is lost."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        for fd, keep in zip((1, 2), saved, strict=True):
+            os.dup2(keep, fd)
+            os.close(keep)
+
+
 def read_exr(path: str | os.PathLike[str]) -> GBuffer:
     """Read an EXR written by :func:`write_exr` (or any single-part scanline EXR)."""
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"{p}: no such file")
+    p = check_input_file(path)
+    with open(p, "rb") as fh:
+        magic = fh.read(4)
+    if magic != _MAGIC:
+        raise InputError(f"{p}: not a valid EXR (truncated?)")
     try:
-        f = OpenEXR.File(str(p), separate_channels=True)
-    except Exception as e:
-        raise InputError(f"{p}: not a readable OpenEXR file ({e})") from None
-    with f:
-        if len(f.parts) != 1:
-            raise InputError(f"{p}: multi-part EXR files are not supported")
-        # Closing the file clears its header and channel objects: copy what we keep.
-        header = dict(f.header())
-        raw = {name: np.array(ch.pixels, copy=True) for name, ch in f.channels().items()}
+        with quiet_library():  # the library prints its own lines about a damaged file
+            f = OpenEXR.File(str(p), separate_channels=True)
+            with f:
+                parts = len(f.parts)
+                # Closing the file clears its header and channel objects: copy what we keep.
+                header = dict(f.header())
+                raw = {name: np.array(ch.pixels, copy=True) for name, ch in f.channels().items()}
+    except Exception:
+        raise InputError(f"{p}: not a valid EXR (truncated?)") from None
+    if parts != 1:
+        raise InputError(f"{p}: multi-part EXR files are not supported")
     layers: dict[str, np.ndarray] = {}
     for name in _order(list(raw), header.get(_LAYERS)):
         a = raw[name]

@@ -35,10 +35,17 @@ from PIL import Image
 
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
-from ._atomic import atomic_output, check_writable_dir
+from ..params import MAX_RES, Param, check_arg, integer_range, real_range, rgb_color
+from ._atomic import atomic_output, check_writable_dir, output_set
 from .png import linear_to_srgb, to_rgb8
 
 _RESERVED = {"beauty", "contours"}
+
+
+_WIDTH = Param("width", int, 1, "image width in pixels", integer_range(1, MAX_RES))
+_HEIGHT = Param("height", int, 1, "image height in pixels", integer_range(1, MAX_RES))
+_COLOR = Param("color", tuple, (1.0, 0.0, 0.0), "linear RGB of the contours", rgb_color)
+_STROKE = Param("stroke_width", float, 1.0, "line width", real_range(0.0, 1e4, open_lo=True))
 
 
 def _hex(color: Sequence[float]) -> str:
@@ -92,9 +99,10 @@ def svg_document(
     """The SVG text for ``contours`` (:class:`~mi_npr.contours.Contour`) over an image of
     ``width`` x ``height`` pixels; ``beauty`` ((H, W, 3) linear RGB) is embedded beneath them.
     ``color`` is linear RGB (written as sRGB hex)."""
-    w, h = int(width), int(height)
-    if w < 1 or h < 1:
-        raise ParameterError(f"SVG size {width} x {height}: must be positive")
+    w = check_arg("write_svg", _WIDTH, width)
+    h = check_arg("write_svg", _HEIGHT, height)
+    color = check_arg("write_svg", _COLOR, color)
+    stroke_width = check_arg("write_svg", _STROKE, stroke_width)
     groups: dict[int, tuple[str, list[str]]] = {}
     for c in contours:
         d = _path_data(c.points, c.closed)
@@ -185,17 +193,18 @@ def write_contour_outputs(
         color = tuple(float(v) for v in gb.metadata["mi_npr/contour_color"].split(","))
     except (KeyError, ValueError):
         color = (1.0, 0.0, 0.0)
-    svg = write_svg(
-        d / f"{stem}_contours.svg",
-        list(contours),
-        gb.width,
-        gb.height,
-        beauty=raw_beauty(gb) if beauty_in_svg else None,
-        color=color,
-        title=gb.metadata.get("mi_npr/scene", stem),
-    )
-    return [
-        write_exr(d / f"{stem}.exr", gb),
-        write_png(d / f"{stem}_contours.png", gb.beauty),
-        svg,
-    ]
+    with output_set():  # the three files together, or none of them
+        svg = write_svg(
+            d / f"{stem}_contours.svg",
+            list(contours),
+            gb.width,
+            gb.height,
+            beauty=raw_beauty(gb) if beauty_in_svg else None,
+            color=color,
+            title=gb.metadata.get("mi_npr/scene", stem),
+        )
+        return [
+            write_exr(d / f"{stem}.exr", gb),
+            write_png(d / f"{stem}_contours.png", gb.beauty),
+            svg,
+        ]
