@@ -46,8 +46,8 @@ def gbuffer_panel() -> Path:
         (mi_npr.io.to_rgb8(gb.beauty), "R G B (nested path tracer)", {}),
         (z, "Z", {"cmap": "magma_r"}),
         (np.clip(gb.normals * 0.5 + 0.5, 0, 1), "N.X N.Y N.Z", {}),
-        (gb["object_id"], "object_id", {"cmap": "tab10", "interpolation": "nearest"}),
-        (gb["prim_id"] % 7, "prim_id (mod 7)", {"cmap": "viridis", "interpolation": "nearest"}),
+        (gb["object_id.V"], "object_id.V", {"cmap": "tab10", "interpolation": "nearest"}),
+        (gb["prim_id.V"] % 7, "prim_id (mod 7)", {"cmap": "viridis", "interpolation": "nearest"}),
         (np.clip(np.abs(gb.positions) / 4, 0, 1), "|P.X P.Y P.Z| / 4", {}),
     ]
     return _figure(panels, "gbuffer_scene1.png", (2, 3), (12, 6.2), 80)
@@ -60,7 +60,7 @@ def lines_panel() -> Path:
     gray = {"cmap": "gray", "vmin": 0, "vmax": 1}
     panels = [
         (mi_npr.io.to_rgb8(gb.beauty), "R G B (npr_lines, defaults)"),
-        (1.0 - gb["lines"], "lines", gray),
+        (1.0 - gb["lines.V"], "lines.V", gray),
         (1.0 - extra, "lines, id_edges + normal_edges=30", gray),
     ]
     return _figure(panels, "lines_scene4.png", (1, 3), (15, 4.3), 100)
@@ -99,7 +99,7 @@ def foliage_panel() -> Path:
         gb = mi_npr.render(
             ROOT / "scenes_xml" / "foliage_large_leaves.xml", width=res, height=res, abstraction=a
         )
-        leaf = (gb["leaf_id"] > 0)[..., None]
+        leaf = (gb["leaf_id.V"] > 0)[..., None]
         panels.append((np.where(leaf, gb.normals * 0.5 + 0.5, 1.0)[crop], f"N, abstraction {a:g}"))
     return _figure(panels, "foliage_styles.png", (1, len(panels)), (3.0 * len(panels), 2.6), 80)
 

@@ -3,7 +3,7 @@
 The exact pixel-centre G-buffer of ``npr_gbuffer`` goes through :func:`mi_npr.kernels.lines`:
 normalised depth -> selective dilation (eqs. 5.3-5.4) -> signed depth contours (eq. 5.1) ->
 isolated-pixel removal (eq. 5.2), plus optional object-ID and crease edges. The gray-level result
-is the ``lines`` layer, and it is composited onto the nested integrator's beauty in ``line_color``
+is the ``lines.V`` layer, and it is composited onto the nested integrator's beauty in ``line_color``
 (``R G B``); the untouched beauty stays in ``beauty.R beauty.G beauty.B``.
 
 .. list-table::
@@ -50,7 +50,7 @@ is the ``lines`` layer, and it is composited onto the nested integrator's beauty
    * - ``leaf_edges``
      - integer
      - 0
-     - Also outline every leaf primitive (``npr_leaves`` shapes) from the ``leaf_id`` layer:
+     - Also outline every leaf primitive (``npr_leaves`` shapes) from the ``leaf_id.V`` layer:
        0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px. Adds the ``leaf_id`` layer to the output.
    * - ``bright_fade``
      - float
@@ -75,8 +75,8 @@ is the ``lines`` layer, and it is composited onto the nested integrator's beauty
 The defaults draw clean 1-pixel contours on the paper's scenes at 640x480 (see
 :mod:`mi_npr.kernels.chain` for why).
 
-``mi.render(scene)`` returns (H, W, 16): ``R G B`` (beauty with the lines), ``lines``, the
-G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id`` (then ``leaf_id`` when
+``mi.render(scene)`` returns (H, W, 16): ``R G B`` (beauty with the lines), ``lines.V``, the
+G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id.V prim_id.V`` (then ``leaf_id.V`` when
 ``leaf_edges`` is on), and last the untouched beauty ``beauty.R beauty.G beauty.B``: the layout
 of every mi-npr integrator that draws on the beauty (its own layers, the G-buffer, the raw
 beauty). The sensor's film holds the same channels afterwards. ``mi-npr render`` writes every
