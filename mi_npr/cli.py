@@ -95,6 +95,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("render", help="render scenes to multi-layer EXR + PNG")
     _scene_batch_arguments(r)
+    r.add_argument(
+        "--cryptomatte",
+        action="store_true",
+        help="add Cryptomatte 1.2 layers (CryptoObject, CryptoMaterial) to the EXR",
+    )
 
     c = sub.add_parser(
         "contours", help="apparent contours in red over the beauty render: PNG, SVG and EXR"
@@ -207,7 +212,10 @@ def _cmd_render(args: argparse.Namespace) -> int:
     outdir, options = _scene_batch(args)
 
     def job(scene: str) -> list[Path]:
-        gb = mi_npr.render(scene, seed=args.seed, **options)
+        if args.cryptomatte:
+            gb = mi_npr.cryptomatte.render(scene, seed=args.seed, **options)
+        else:
+            gb = mi_npr.render(scene, seed=args.seed, **options)
         return mi_npr.io.write_outputs(gb, outdir, Path(scene).stem)
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)

@@ -57,6 +57,9 @@ EDGES_SHADOW = "edges_shadow.V"
 EDGES = (EDGES_REAL, EDGES_REFLECTION, EDGES_REFRACTION, EDGES_SHADOW)
 RAYTREE_HI = "raytree_hi.V"
 RAYTREE_LO = "raytree_lo.V"
+#: Cryptomatte 1.2 (mi_npr.cryptomatte): ``CryptoObject00.R`` ... as the specification names them.
+CRYPTO_OBJECT = "CryptoObject"
+CRYPTO_MATERIAL = "CryptoMaterial"
 #: Foliage (issue 8): which leaf primitive a pixel sees.
 LEAF_ID = "leaf_id.V"
 

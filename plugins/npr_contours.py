@@ -74,7 +74,7 @@ class NprContoursIntegrator(NprIntegrator):
     )
 
     def aov_names(self) -> list[str]:
-        return [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB]
+        return [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         out, _ = overlay(

@@ -137,7 +137,7 @@ class NprLinesIntegrator(NprIntegrator):
 
     def aov_names(self) -> list[str]:
         extra = [L.LEAF_ID] if self.params["leaf_edges"] else []
-        return [L.LINES, *L.GBUFFER_AOVS, *extra, *L.RAW_RGB]
+        return [L.LINES, *L.GBUFFER_AOVS, *extra, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         params = {k: self.params[k] for k in _CHAIN}

@@ -79,7 +79,7 @@ class NprRayTreeIntegrator(NprIntegrator):
     PARAMS = (Param("max_depth", int, 3, "levels of the ray trees", _depth),)
 
     def aov_names(self) -> list[str]:
-        return [*LAYERS, *L.GBUFFER_AOVS, *L.RAW_RGB]
+        return [*LAYERS, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         return add_raytree(scene, sensor, gb, self.params["max_depth"])
