@@ -117,8 +117,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="what one object is (default: the XML's npr_contours setting, else shape)",
     )
     c.add_argument(
-        "--no-beauty-in-svg", action="store_true", help="do not embed the beauty in the SVG"
+        "--svg-image",
+        choices=("embed", "link", "none"),
+        default="embed",
+        help="the beauty under the SVG's paths: embedded once (default), linked as "
+        "<stem>_beauty.png beside it, or none",
     )
+    c.add_argument("--no-beauty-in-svg", action="store_true", help="the same as --svg-image none")
 
     t = sub.add_parser(
         "raytree",
@@ -230,11 +235,12 @@ def _cmd_contours(args: argparse.Namespace) -> int:
     outdir, options = _scene_batch(args)
 
     def job(scene: str) -> list[Path]:
-        gb, contours = mi_npr.contours.render_contours(
+        gb, contours, paths, strokes = mi_npr.contours.render_vector_contours(
             scene, seed=args.seed, method=args.method, id_mode=args.id_mode, **options
         )
+        image = "none" if args.no_beauty_in_svg else args.svg_image
         return mi_npr.io.write_contour_outputs(
-            gb, contours, outdir, Path(scene).stem, beauty_in_svg=not args.no_beauty_in_svg
+            gb, contours, outdir, Path(scene).stem, svg_image=image, paths=paths, strokes=strokes
         )
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
