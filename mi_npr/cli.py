@@ -75,7 +75,12 @@ def _define_argument(cmd: argparse.ArgumentParser) -> None:
 
 def _scene_batch_arguments(cmd: argparse.ArgumentParser) -> None:
     """The arguments of commands that render a batch of scenes into OUTDIR."""
-    cmd.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
+    cmd.add_argument(
+        "scenes",
+        nargs="+",
+        metavar="SCENE.xml",
+        help="Mitsuba XML scene(s); a name that is no file is a bundled scene (scene1, ...)",
+    )
     cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
     _define_argument(cmd)
     cmd.add_argument("--spp", type=_positive, help="samples per pixel of the beauty image")
@@ -141,7 +146,9 @@ def build_parser() -> argparse.ArgumentParser:
         "best-view",
         help="find a scene's best viewpoint (paper eqs. 1-3) and write it as a Mitsuba sensor",
     )
-    b.add_argument("scene", metavar="SCENE.xml", help="Mitsuba XML scene")
+    b.add_argument(
+        "scene", metavar="SCENE.xml", help="Mitsuba XML scene, or a bundled scene's name"
+    )
     b.add_argument(
         "--measure",
         required=True,
@@ -371,6 +378,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise mi_npr._api.STARTUP_ERROR
         if args.variant:
             mi_npr.set_variant(args.variant)
+        from mi_npr.data import resolve
+
+        if hasattr(args, "scenes"):  # a bundled scene by name: `mi-npr render scene1`
+            args.scenes = [resolve(s) for s in args.scenes]
+        if args.command == "best-view":
+            args.scene = resolve(args.scene)
         return COMMANDS[args.command](args)
     except KeyboardInterrupt:
         return _fail("interrupted", 130)
