@@ -119,6 +119,74 @@ def overview_panel() -> Path:
     return _figure(panels, "overview_scene1.png", (1, 3), (15, 3.9), 80)
 
 
+def _browser_screenshot(svg: Path, png: Path, size: tuple[int, int]) -> np.ndarray:
+    """``svg`` as a headless Chromium renders it (``apt-get install chromium``)."""
+    import shutil
+    import subprocess
+
+    from PIL import Image
+
+    exe = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("chrome")
+    if exe is None:
+        raise SystemExit("the svg figure needs a headless browser: apt-get install chromium")
+    subprocess.run(
+        [
+            exe,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            f"--window-size={size[0]},{size[1]}",
+            f"--screenshot={png}",
+            svg.as_uri(),
+        ],
+        check=True,
+        capture_output=True,
+        timeout=120,
+    )
+    return np.asarray(Image.open(png).convert("RGB"))
+
+
+def svg_panel() -> Path:
+    """The SVG of ``mi-npr contours`` on scene 1 as a browser shows it, and a zoom on one sphere's
+    edge: the path's vertices on the true outline against the old pixel-centre chain."""
+    import re
+    import tempfile
+
+    w, h = 320, 240
+    gb, contours, paths, _ = mi_npr.contours.render_vector_contours(
+        ROOT / "scenes_xml" / "scene1.xml", width=w, height=h, spp=64
+    )
+    beauty = mi_npr.compose.raw_beauty(gb)
+    full = mi_npr.io.svg_document(paths, w, h, beauty=beauty)
+    full = full.replace(f'width="{w}" height="{h}" viewBox', 'width="640" height="480" viewBox')
+    # the zoom: 24 x 18 pixels on the left sphere's upper-left rim, thin strokes, with the
+    # pixel-centre chain of the same contour in blue for comparison
+    left = next(c for c in contours if c.name == "sphere_left")
+    old = mi_npr.io.svg_document([left], w, h, color=(0.0, 0.2, 1.0), stroke_width=0.06)
+    old_layer = old[old.index('<g id="contours"') : old.rindex("</svg>")]
+    old_layer = old_layer.replace('id="contours"', 'id="pixel-centres"', 1)
+    old_layer = re.sub(r'id="sphere_left"', 'id="sphere_left-pixels"', old_layer)
+    zoom = mi_npr.io.svg_document(paths, w, h, beauty=beauty, stroke_width=0.08)
+    zoom = zoom.replace("</svg>", old_layer + "</svg>")
+    x0, y0 = int(left.points[:, 0].min()) + 2, int(left.points[:, 1].min()) + 4
+    zoom = zoom.replace(
+        f'width="{w}" height="{h}" viewBox="0 0 {w} {h}"',
+        f'width="640" height="480" viewBox="{x0} {y0} 24 18"',
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        shots = []
+        for name, text in (("full", full), ("zoom", zoom)):
+            svg = Path(tmp) / f"{name}.svg"
+            svg.write_text(text)
+            shots.append(_browser_screenshot(svg, Path(tmp) / f"{name}.png", (640, 480)))
+    panels = [
+        (shots[0], "scene1_contours.svg in Chromium (vector paths over the embedded beauty)"),
+        (shots[1], "zoom: red, the sphere's and the wall's paths; blue, pixel centres"),
+    ]
+    return _figure(panels, "svg_scene1.png", (1, 2), (13, 5.1), 80)
+
+
 PANELS = {
     "overview": overview_panel,
     "gbuffer": gbuffer_panel,
@@ -126,6 +194,7 @@ PANELS = {
     "contours": contours_panel,
     "raytree": raytree_panel,
     "foliage": foliage_panel,
+    "svg": svg_panel,
 }
 
 if __name__ == "__main__":

@@ -150,7 +150,7 @@ def test06_missing_or_mismatched_layers():
         K.lines(z_only, id_edges=True)
     with pytest.raises(mi_npr.ParameterError, match=r"no 'N\.X' layer"):
         K.lines({**z_only, L.OBJECT_ID: np.zeros((3, 3), np.uint32)}, normal_edges=20.0)
-    with pytest.raises(mi_npr.ParameterError, match="object_id: shape"):
+    with pytest.raises(mi_npr.ParameterError, match=r"object_id\.V: shape"):
         K.lines({L.Z: np.ones((3, 4)), L.OBJECT_ID: np.zeros((4, 3), np.uint32)}, id_edges=True)
 
 
