@@ -227,4 +227,35 @@ def test08_lines_and_edges_become_stroke_layers():
     dist = np.min([seg_dist(np.stack([xs + 0.5, ys + 0.5], 1), ln, False) for ln in lines], 0)
     assert dist.max() <= 0.25 + 1e-9
     text = mi_npr.io.svg_document([], 64, 48, strokes=strokes)
-    assert [g.get(f"{INK}label") for g in _layers(ET.fromstring(text))] == ["contours", "lines"]
+    assert [g.get(f"{INK}label") for g in _layers(ET.fromstring(text))] == ["lines"]
+
+
+def test09_raytree_svg_has_one_layer_per_edge_class(tmp_path):
+    r = run_cli(
+        "raytree", "scene1", "-o", str(tmp_path), "-D", "width=48", "-D", "height=36",
+        "--spp", "1", "--no-progress",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    root = ET.parse(tmp_path / "scene1_raytree.svg").getroot()
+    layers = {g.get(f"{INK}label"): g for g in _layers(root)}
+    assert list(layers) == [
+        "beauty",
+        "edges_real",
+        "edges_reflection",
+        "edges_refraction",
+        "edges_shadow",
+    ]
+    gb = mi_npr.io.read_exr(tmp_path / "scene1.exr")
+    for name in L.EDGES:
+        mask = gb[name] > 0.5
+        polys = []
+        for p in layers[name.split(".")[0]].findall(f"{SVG}path"):
+            d = p.get("d").replace("M", " ").replace("L", " ").replace("Z", " ")
+            polys.append(np.reshape([float(v) for v in d.split()], (-1, 2)))
+        ys, xs = np.nonzero(mask)
+        assert len(polys) > 0 or not mask.any()
+        if mask.any():
+            c = np.stack([xs + 0.5, ys + 0.5], 1)
+            assert np.min([seg_dist(c, q, False) for q in polys], axis=0).max() <= 0.25 + 0.01
+            v = (np.concatenate(polys) - 0.5).round().astype(int)
+            assert mask[v[:, 1], v[:, 0]].all()

@@ -167,15 +167,16 @@ def svg_document(
             f'style="image-rendering:pixelated" href={quoteattr(href)}/>'
         )
         out.append("</g>")
-    out.append(
-        _layer(
-            "contours",
-            "contours",
-            f'fill="none" stroke="{_hex(color)}" stroke-width="{stroke_width:g}" '
-            'stroke-linejoin="round" stroke-linecap="round"',
-        )
-    )
     taken: set[str] = set(strokes or ())
+    if groups or not strokes:  # a drawing of strokes only has no empty contours layer
+        out.append(
+            _layer(
+                "contours",
+                "contours",
+                f'fill="none" stroke="{_hex(color)}" stroke-width="{stroke_width:g}" '
+                'stroke-linejoin="round" stroke-linecap="round"',
+            )
+        )
     for k in sorted(groups):
         name, paths = groups[k]
         gid = xml_id(name, taken, str(k))
@@ -186,7 +187,8 @@ def svg_document(
         )
         out.extend(paths)
         out.append("  </g>")
-    out.append("</g>")
+    if groups or not strokes:
+        out.append("</g>")
     for name, (lines, rgb) in (strokes or {}).items():
         out.append(
             _layer(
