@@ -264,9 +264,7 @@ def _cmd_raytree(args: argparse.Namespace) -> int:
     def job(scene: str) -> list[Path]:
         gb = mi_npr.raytree.render(scene, max_depth=args.max_depth, seed=args.seed, **options)
         stem = Path(scene).stem
-        return mi_npr.io.write_raytree_outputs(
-            gb, outdir, stem, mi_npr.contours.stroke_layers(gb)
-        )
+        return mi_npr.io.write_raytree_outputs(gb, outdir, stem, mi_npr.contours.stroke_layers(gb))
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
     return _report(results)
