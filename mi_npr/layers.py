@@ -134,9 +134,23 @@ LEGACY: dict[str, str] = {
 FLOAT_EXACT = 2**24
 
 
-def exr_type(name: str, dtype: np.dtype) -> str:
+def exr_type(name: str) -> str:
     """Pixel type of a layer in EXR files: ``"UINT"`` only for the layers whose spec says so."""
     known = spec(name)
     if known is not None:
         return known.exr_type
     return "FLOAT"
+
+
+def meaning(name: str) -> str:
+    """What a layer holds, in words (``""`` for a layer mi-npr does not know)."""
+    known = spec(name)
+    if known is not None:
+        return known.description
+    for crypto in (CRYPTO_OBJECT, CRYPTO_MATERIAL):
+        rank = name.removeprefix(crypto)
+        if rank != name and len(rank) == 4 and rank[:2].isdigit() and rank[2] == ".":
+            k = 2 * int(rank[:2]) + (rank[3] in "BA")
+            what = "id (name hash as float)" if rank[3] in "RB" else "coverage"
+            return f"Cryptomatte {crypto}: {what} of rank {k}"
+    return ""

@@ -151,6 +151,9 @@ def test03_layers_metadata_and_manifest(written):
     mats, _ = crypto["CryptoMaterial"]
     # shared referenced BSDF -> one material; unnamed nested ones named after their shape
     assert set(mats) == {"red", "small.bsdf", "wall.bsdf"}
+    assert L.meaning("CryptoObject01.A") == "Cryptomatte CryptoObject: coverage of rank 3"
+    assert L.meaning("CryptoMaterial00.B").endswith("id (name hash as float) of rank 1")
+    assert L.meaning("CryptoObjectXY.R") == ""
 
 
 def test04_masks_match_exact_ids_where_a_pixel_is_one_object(written):

@@ -94,7 +94,7 @@ def world_to_ndc(camera: Camera) -> np.ndarray | None:
 
 def _file_layer(path: Path, name: str, a: np.ndarray) -> np.ndarray:
     """The array as stored: ids (uint32, file type ``FLOAT``) as exact float32 whole numbers."""
-    if a.dtype == np.uint32 and L.exr_type(name, a.dtype) == "FLOAT":
+    if a.dtype == np.uint32 and L.exr_type(name) == "FLOAT":
         top = int(a.max()) if a.size else 0
         if top > L.FLOAT_EXACT:
             raise OutputError(
@@ -208,7 +208,6 @@ def describe(gb: GBuffer) -> dict[str, Any]:
     for name in gb.names:
         a = gb[name]
         finite = a[np.isfinite(a)] if a.dtype.kind == "f" else a
-        spec = L.spec(name)
         info_layers.append(
             {
                 "name": name,
@@ -216,7 +215,7 @@ def describe(gb: GBuffer) -> dict[str, Any]:
                 "min": float(finite.min()) if finite.size else None,
                 "max": float(finite.max()) if finite.size else None,
                 "non_finite": int(a.size - finite.size),
-                "meaning": spec.description if spec else "",
+                "meaning": L.meaning(name),
             }
         )
     return {
