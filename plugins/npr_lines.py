@@ -51,7 +51,7 @@ is the ``lines.V`` layer, and it is composited onto the nested integrator's beau
      - integer
      - 0
      - Also outline every leaf primitive (``npr_leaves`` shapes) from the ``leaf_id.V`` layer:
-       0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px. Adds the ``leaf_id`` layer to the output.
+       0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px. Adds the ``leaf_id.V`` layer to the output.
    * - ``bright_fade``
      - float
      - 0
