@@ -33,7 +33,7 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import contours, foliage, io, kernels, raytree, viewpoint  # noqa: E402
+from . import contours, cryptomatte, data, foliage, io, kernels, raytree, viewpoint  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -49,6 +49,8 @@ __all__ = [
     "SceneError",
     "camera_of",
     "contours",
+    "cryptomatte",
+    "data",
     "dr",
     "foliage",
     "io",

@@ -95,7 +95,12 @@ def _define_argument(cmd: argparse.ArgumentParser) -> None:
 
 def _scene_batch_arguments(cmd: argparse.ArgumentParser, name: str) -> None:
     """The arguments of commands that render a batch of scenes into OUTDIR."""
-    cmd.add_argument("scenes", nargs="+", metavar="SCENE.xml", help="Mitsuba XML scene(s)")
+    cmd.add_argument(
+        "scenes",
+        nargs="+",
+        metavar="SCENE.xml",
+        help="Mitsuba XML scene(s); a name that is no file is a bundled scene (scene1, ...)",
+    )
     cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
     _define_argument(cmd)
     cmd.add_argument(
@@ -144,6 +149,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="R,G,B",
         help="paper colour of <stem>_lines.png (linear RGB, default white 1,1,1)",
     )
+    r.add_argument(
+        "--cryptomatte",
+        action="store_true",
+        help="add Cryptomatte 1.2 layers (CryptoObject, CryptoMaterial) to the EXR",
+    )
 
     c = sub.add_parser(
         "contours", help="apparent contours in red over the beauty render: PNG, SVG and EXR"
@@ -161,8 +171,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="what one object is (default: the XML's npr_contours setting, else shape)",
     )
     c.add_argument(
-        "--no-beauty-in-svg", action="store_true", help="do not embed the beauty in the SVG"
+        "--svg-image",
+        choices=("embed", "link", "none"),
+        default="embed",
+        help="the beauty under the SVG's paths: embedded once (default), linked as "
+        "<stem>_beauty.png beside it, or none",
     )
+    c.add_argument("--no-beauty-in-svg", action="store_true", help="the same as --svg-image none")
 
     t = sub.add_parser(
         "raytree",
@@ -180,7 +195,9 @@ def build_parser() -> argparse.ArgumentParser:
         "best-view",
         help="find a scene's best viewpoint (paper eqs. 1-3) and write it as a Mitsuba sensor",
     )
-    b.add_argument("scene", metavar="SCENE.xml", help="Mitsuba XML scene")
+    b.add_argument(
+        "scene", metavar="SCENE.xml", help="Mitsuba XML scene, or a bundled scene's name"
+    )
     b.add_argument(
         "--measure",
         required=True,
@@ -293,7 +310,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     lines = {"line_width": args.line_width, "line_aa": args.line_aa, "line_color": args.line_color}
 
     def job(scene: str) -> list[Path]:
-        gb = render_lines(scene, seed=args.seed, **lines, **options)
+        gb = render_lines(scene, seed=args.seed, cryptomatte=args.cryptomatte, **lines, **options)
         return mi_npr.io.write_outputs(
             gb, outdir, Path(scene).stem, line_color=args.line_color, paper=args.paper
         )
@@ -310,11 +327,12 @@ def _cmd_contours(args: argparse.Namespace) -> int:
     outdir, options = _scene_batch(args)
 
     def job(scene: str) -> list[Path]:
-        gb, contours = mi_npr.contours.render_contours(
+        gb, contours, paths, strokes = mi_npr.contours.render_vector_contours(
             scene, seed=args.seed, method=args.method, id_mode=args.id_mode, **options
         )
+        image = "none" if args.no_beauty_in_svg else args.svg_image
         return mi_npr.io.write_contour_outputs(
-            gb, contours, outdir, Path(scene).stem, beauty_in_svg=not args.no_beauty_in_svg
+            gb, contours, outdir, Path(scene).stem, svg_image=image, paths=paths, strokes=strokes
         )
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
@@ -331,11 +349,7 @@ def _cmd_raytree(args: argparse.Namespace) -> int:
     def job(scene: str) -> list[Path]:
         gb = mi_npr.raytree.render(scene, max_depth=args.max_depth, seed=args.seed, **options)
         stem = Path(scene).stem
-        with mi_npr.io.output_set():
-            return [
-                mi_npr.io.write_exr(outdir / f"{stem}.exr", gb),
-                mi_npr.io.write_png(outdir / f"{stem}_raytree.png", gb.beauty),
-            ]
+        return mi_npr.io.write_raytree_outputs(gb, outdir, stem, mi_npr.contours.stroke_layers(gb))
 
     results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
     return _report(results)
@@ -470,6 +484,12 @@ def _run(args: argparse.Namespace) -> int:
 
             set_max_memory(args.max_memory)
             os.environ[ENV] = args.max_memory  # worker processes too
+        from mi_npr.data import resolve
+
+        if hasattr(args, "scenes"):  # a bundled scene by name: `mi-npr render scene1`
+            args.scenes = [resolve(s) for s in args.scenes]
+        if args.command == "best-view":
+            args.scene = resolve(args.scene)
         return COMMANDS[args.command](args)
     except KeyboardInterrupt:
         _remove_temps()

@@ -111,6 +111,12 @@ def _refuse_other_objects(plugin: str, props: mi.Properties) -> None:
             )
 
 
+#: Every mi-npr integrator's own parameter: Cryptomatte 1.2 layers (:mod:`mi_npr.cryptomatte`).
+CRYPTOMATTE = Param(
+    "cryptomatte", bool, False, "add CryptoObject and CryptoMaterial layers (Cryptomatte 1.2)"
+)
+
+
 class NprIntegrator(mi.SamplingIntegrator):
     """Common machinery; see the module docstring. Not registered as a plugin itself."""
 
@@ -126,13 +132,19 @@ class NprIntegrator(mi.SamplingIntegrator):
             raise ParameterError(f"{self.PLUGIN}: at most one nested (beauty) integrator")
         self.beauty: mi.Integrator | None = nested[0] if nested else None
         self.params: dict[str, Any] = read_props(
-            self.PLUGIN, self.PARAMS, props, lambda v: isinstance(v, mi.Object)
+            self.PLUGIN, (*self.PARAMS, CRYPTOMATTE), props, lambda v: isinstance(v, mi.Object)
         )
 
     # ------------------------------------------------------------ the pipeline
     def aov_names(self) -> list[str]:
         """Channels after the beauty's R, G, B in ``mi.render``'s output."""
-        return list(L.GBUFFER_AOVS)
+        return [*L.GBUFFER_AOVS, *self.crypto_aovs()]
+
+    def crypto_aovs(self) -> list[str]:
+        """The Cryptomatte channels, last in every integrator's list when ``cryptomatte`` is on."""
+        from .cryptomatte import aov_names
+
+        return aov_names() if self.params.get("cryptomatte") else []
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         """Add this integrator's layers to ``gb`` (and composite onto R, G, B)."""
@@ -154,6 +166,10 @@ class NprIntegrator(mi.SamplingIntegrator):
             session = SceneSession(scene, sensor_of(scene, sensor), source, check_spp(spp))
         gb = render_gbuffer(session, beauty=self.beauty, spp=spp, seed=seed)
         gb = self.post(session.scene, session.sensor, gb)
+        if self.params.get("cryptomatte"):
+            from .cryptomatte import add_cryptomatte
+
+            gb = add_cryptomatte(gb, session.scene, session.sensor, spp, seed)
         return gb.with_metadata(**{"mi_npr/integrator": self.PLUGIN})
 
     def render(

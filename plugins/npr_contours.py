@@ -31,9 +31,9 @@ real objects from their reflections and refractions.
      - ``1, 0, 0``
      - Linear RGB of the contour pixels (finite, >= 0, like ``npr_lines``'s ``line_color``).
 
-Channels (``aov_names()``, after ``R G B``): ``contour`` (object id on contour pixels, 0
+Channels (``aov_names()``, after ``R G B``): ``contour.V`` (object id on contour pixels, 0
 elsewhere, in the ids of ``id_mode``; their names are in the GBuffer's metadata
-``mi_npr/contour_objects``), the G-buffer's ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id``,
+``mi_npr/contour_objects``), the G-buffer's ``Z P.X P.Y P.Z N.X N.Y N.Z object_id.V prim_id.V``,
 then the untouched beauty ``beauty.R beauty.G beauty.B``. ``R G B`` hold the beauty with the
 contours drawn.
 
@@ -74,7 +74,7 @@ class NprContoursIntegrator(NprIntegrator):
     )
 
     def aov_names(self) -> list[str]:
-        return [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB]
+        return [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         out, _ = overlay(

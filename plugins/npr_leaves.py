@@ -4,7 +4,7 @@ Thesis section 4.3 draws *leaf primitives* instead of a plant's own leaves: thei
 dense the silhouette edges are. XML cannot generate geometry, so this plugin does, from the files
 it names, with :func:`mi_npr.foliage.make_leaves`: ONE triangle mesh for all leaves (fast to load
 and to trace), with UVs and the per-triangle leaf index (``face_leaf`` attribute) that becomes the
-``leaf_id`` layer. Because the mesh is made at load time, ``leaf_size`` and every other parameter
+``leaf_id.V`` layer. Because the mesh is made at load time, ``leaf_size`` and every other parameter
 can be a ``<default>`` of the scene (``mi-npr render tree.xml -D leaf_size=0.2``). The same
 arguments give the same leaves (``seed``).
 

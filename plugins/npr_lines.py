@@ -4,7 +4,7 @@ The exact pixel-centre G-buffer of ``npr_gbuffer`` goes through :func:`mi_npr.ke
 normalised depth -> selective dilation (eqs. 5.3-5.4) -> signed depth contours (eq. 5.1) ->
 isolated-pixel removal (eq. 5.2), plus object boundaries (ID edges) and creases, every kind 1 px
 wide on one side of its edge (see :mod:`mi_npr.kernels.chain` for the width rule), computed from
-``line_aa`` x ``line_aa`` rays per pixel and box-filtered. The gray-level result is the ``lines``
+``line_aa`` x ``line_aa`` rays per pixel and box-filtered. The gray-level result is the ``lines.V``
 layer, and it is composited onto the nested integrator's beauty in ``line_color``
 (``R G B``); the untouched beauty stays in ``beauty.R beauty.G beauty.B``.
 
@@ -52,8 +52,8 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
    * - ``leaf_edges``
      - integer
      - 0
-     - Also outline every leaf primitive (``npr_leaves`` shapes) from the ``leaf_id`` layer:
-       0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px. Adds the ``leaf_id`` layer to the output.
+     - Also outline every leaf primitive (``npr_leaves`` shapes) from the ``leaf_id.V`` layer:
+       0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px. Adds the ``leaf_id.V`` layer to the output.
    * - ``max_density``
      - float
      - 1
@@ -94,8 +94,8 @@ The defaults draw what a line drawing holds, as Blender Freestyle's silhouette +
 (134 degrees) do: depth contours, object boundaries and creases, each 1 px wide (see
 :mod:`mi_npr.kernels.chain` for why).
 
-``mi.render(scene)`` returns (H, W, 16): ``R G B`` (beauty with the lines), ``lines``, the
-G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id`` (then ``leaf_id`` when
+``mi.render(scene)`` returns (H, W, 16): ``R G B`` (beauty with the lines), ``lines.V``, the
+G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id.V prim_id.V`` (then ``leaf_id.V`` when
 ``leaf_edges`` is on), and last the untouched beauty ``beauty.R beauty.G beauty.B``: the layout
 of every mi-npr integrator that draws on the beauty (its own layers, the G-buffer, the raw
 beauty). The sensor's film holds the same channels afterwards. ``mi-npr render`` writes every
@@ -161,7 +161,7 @@ class NprLinesIntegrator(NprIntegrator):
 
     def aov_names(self) -> list[str]:
         extra = [L.LEAF_ID] if self.params["leaf_edges"] else []
-        return [L.LINES, *L.GBUFFER_AOVS, *extra, *L.RAW_RGB]
+        return [L.LINES, *L.GBUFFER_AOVS, *extra, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         params = {k: self.params[k] for k in _CHAIN}

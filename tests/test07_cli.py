@@ -89,7 +89,7 @@ def test04_info(ball, tmp_path, capsys):
     capsys.readouterr()
     assert cli.main(["info", str(out / "ball.exr")]) == 0
     text = capsys.readouterr().out
-    assert "object_id" in text and "uint32" in text and "1: ball" in text and "fov 40" in text
+    assert "object_id.V" in text and "uint32" in text and "1: ball" in text and "fov 40" in text
     assert cli.main(["info", str(out / "ball.exr"), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["objects"] == {"1": "ball"} and info["width"] == 32

@@ -174,11 +174,11 @@ def test06_missing_or_mismatched_layers():
         K.lines({L.OBJECT_ID: np.zeros((3, 3), np.uint32)})
     z_only = {L.Z: np.ones((3, 3))}
     assert K.lines(z_only).shape == (3, 3)  # depth alone is enough by default
-    with pytest.raises(mi_npr.ParameterError, match="no 'object_id' layer"):
+    with pytest.raises(mi_npr.ParameterError, match=r"no 'object_id\.V' layer"):
         K.lines(z_only, id_edges=True)
     with pytest.raises(mi_npr.ParameterError, match=r"no 'N\.X' layer"):
         K.lines({**z_only, L.OBJECT_ID: np.zeros((3, 3), np.uint32)}, crease_angle=160.0)
-    with pytest.raises(mi_npr.ParameterError, match="object_id: shape"):
+    with pytest.raises(mi_npr.ParameterError, match=r"object_id\.V: shape"):
         K.lines({L.Z: np.ones((3, 4)), L.OBJECT_ID: np.zeros((4, 3), np.uint32)}, id_edges=True)
 
 

@@ -239,8 +239,20 @@ def _jump_distance(succ: np.ndarray, is_rep: np.ndarray) -> np.ndarray:
         nxt = nxt[nxt]
 
 
-def cycles(grid: Grid) -> Cycles:
-    """Every closed contour of ``grid`` (all objects) as crack cycles (see module docstring).
+@dataclass
+class CrackCycles:
+    """The contours of a grid as ordered crack cycles (before collapsing cracks to pixels)."""
+
+    pix: np.ndarray  # flat padded index of each crack's pixel, cycle after cycle, in order
+    side: np.ndarray  # each crack's side d (0 = +x, 1 = +y, 2 = -x, 3 = -y)
+    offsets: np.ndarray  # per cycle: first crack in ``pix`` (len = cycles + 1)
+    object_id: np.ndarray  # per cycle
+    start: np.ndarray  # per cycle: flat padded index of its first pixel
+    is_hole: np.ndarray  # per cycle
+
+
+def crack_cycles(grid: Grid) -> CrackCycles:
+    """Every contour of ``grid`` (all objects) as an ordered cycle of cracks (module docstring).
 
     With a partial grid (``known`` set), only cracks whose two pixels are known take part: the
     caller guarantees that the successors of those cracks are known too (ray-cast mode's closure).
@@ -249,7 +261,7 @@ def cycles(grid: Grid) -> Cycles:
     n = len(pix)
     if n == 0:
         z = np.zeros(0, np.int64)
-        return Cycles(z, z, z.astype(bool), np.zeros(1, np.int64), np.zeros((0, 2), np.int32))
+        return CrackCycles(z, z, np.zeros(1, np.int64), z, z, z.astype(bool))
     keys = pix * 4 + side  # sorted
     succ = np.searchsorted(keys, _successor(grid, pix, side))
     pred = np.empty(n, np.int64)
@@ -271,23 +283,37 @@ def cycles(grid: Grid) -> Cycles:
     first = np.concatenate([[0], np.cumsum(length)[:-1]])
     seq = np.empty(n, np.int64)
     seq[first[cyc] + pos] = idx
-    pix_seq, cyc_seq = pix[seq], cyc[seq]
-    keep = np.ones(n, dtype=bool)
-    keep[1:] = (pix_seq[1:] != pix_seq[:-1]) | (cyc_seq[1:] != cyc_seq[:-1])
-    points = grid.xy(pix_seq[keep])
-    counts = np.bincount(cyc_seq[keep], minlength=len(reps))
     # Twice the signed area enclosed by each cycle's crack edges: > 0 outer border, < 0 hole.
     x = pix % grid.stride - 1
     y = pix // grid.stride - 1
     e = _EDGE[side]
     cross = (x + e[:, 0]) * (y + e[:, 3]) - (x + e[:, 2]) * (y + e[:, 1])
     area = np.bincount(cyc, weights=cross.astype(np.float64), minlength=len(reps))
-    return Cycles(
+    return CrackCycles(
+        pix=pix[seq],
+        side=side[seq],
+        offsets=np.concatenate([[0], np.cumsum(length)]),
         object_id=grid.ids[pix[reps]].astype(np.int64),
         start=pix[reps],
         is_hole=area < 0,
-        offsets=np.concatenate([[0], np.cumsum(counts)]),
-        points=points,
+    )
+
+
+def cycles(grid: Grid) -> Cycles:
+    """Every closed contour of ``grid`` (all objects): :func:`crack_cycles` with consecutive
+    cracks on one pixel collapsed into one point."""
+    cc = crack_cycles(grid)
+    n_cyc = len(cc.object_id)
+    cyc_seq = np.repeat(np.arange(n_cyc, dtype=np.int64), np.diff(cc.offsets))
+    keep = np.ones(len(cc.pix), dtype=bool)
+    keep[1:] = (cc.pix[1:] != cc.pix[:-1]) | (cyc_seq[1:] != cyc_seq[:-1])
+    counts = np.bincount(cyc_seq[keep], minlength=n_cyc)
+    return Cycles(
+        object_id=cc.object_id,
+        start=cc.start,
+        is_hole=cc.is_hole,
+        offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+        points=grid.xy(cc.pix[keep]),
     )
 
 
@@ -388,6 +414,11 @@ def check_only(only: Any) -> list[int] | None:
             raise bad
         out.append(int(v))
     return out
+
+
+def check_ids(object_id: Any) -> np.ndarray:
+    """``object_id`` as a checked (H, W) uint32 id buffer (a one-line error otherwise)."""
+    return _check_ids(object_id)
 
 
 def check_method(method: str) -> str:

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 from .. import layers as L
 from ..gbuffer import GBuffer
@@ -40,6 +41,31 @@ def write_outputs(
     return out
 
 
+def write_raytree_outputs(
+    gb: GBuffer, outdir: str | os.PathLike[str], stem: str, strokes: Mapping[str, Any]
+) -> list[Path]:
+    """What ``mi-npr raytree`` writes: ``<stem>.exr``, ``<stem>_raytree.png`` (the edge classes
+    over the beauty) and ``<stem>_raytree.svg`` (each class an Inkscape layer of paths from
+    ``strokes``, over the raw beauty embedded once)."""
+    from ..compose import raw_beauty
+
+    d = check_writable_dir(outdir, create=True)
+    with output_set():  # every file together, or none of them
+        return [
+            write_exr(d / f"{stem}.exr", gb),
+            write_png(d / f"{stem}_raytree.png", gb.beauty),
+            write_svg(
+                d / f"{stem}_raytree.svg",
+                [],
+                gb.width,
+                gb.height,
+                beauty=raw_beauty(gb),
+                strokes=strokes,
+                title=gb.metadata.get("mi_npr/scene", stem),
+            ),
+        ]
+
+
 __all__ = [
     "atomic_output",
     "check_writable_dir",
@@ -53,6 +79,7 @@ __all__ = [
     "write_exr",
     "write_outputs",
     "write_png",
+    "write_raytree_outputs",
     "write_svg",
     "write_text",
 ]
