@@ -32,7 +32,7 @@ def drawing(
         raise ParameterError(f"the G-buffer has no {L.LINES!r} layer (render with npr_lines)")
     h, w = gb.shape
     sheet = np.broadcast_to(np.asarray(paper, np.float32).reshape(1, 1, 3), (h, w, 3))
-    return over(sheet, gb[L.LINES], line_color)
+    return over(sheet, gb.numpy(L.LINES), line_color)
 
 
 def render_lines(

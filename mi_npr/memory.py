@@ -185,16 +185,18 @@ def render_passes(
     same estimate of the image, in a fraction of the memory (see :func:`check_render`)."""
     if passes <= 1:
         return integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
-    import numpy as np
+    import drjit as dr
+    import mitsuba as mi
 
     total = spp or int(sensor.sampler().sample_count())
     acc = None
     for i, n in enumerate(pass_counts(total, passes)):
         s = (seed * passes + i) & 0xFFFFFFFF  # distinct seeds, within Mitsuba's uint32
         img = integrator.render(scene, sensor, seed=s, spp=n, develop=True, evaluate=True)
-        a = np.asarray(img, dtype=np.float64) * n
+        a = mi.TensorXf64(img) * n  # accumulated in float64, in Dr.Jit
         acc = a if acc is None else acc + a
-    return (acc / total).astype(np.float32)
+        dr.eval(acc)
+    return mi.TensorXf(acc / total)
 
 
 def check_images(width: int, height: int, images: int, what: str) -> None:

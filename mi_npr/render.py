@@ -20,11 +20,10 @@ from typing import Any
 
 import drjit as dr
 import mitsuba as mi
-import numpy as np
 
 from . import layers as L
 from ._version import __version__
-from .gbuffer import GBuffer, to_numpy
+from .gbuffer import GBuffer
 from .memory import check_render, render_passes
 from .raycast import Hits, cast, film_grid, film_size, pixel_rays, require_jit
 from .scene import ObjectTable, camera_of, merge_defines, sensor_of
@@ -83,11 +82,13 @@ def channels(
 
 
 def gbuffer_layers(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, shade: bool) -> dict:
-    """Run the pixel-centre pass: ``{name: (H, W) numpy array}`` (views of Dr.Jit memory)."""
+    """Run the pixel-centre pass: ``{name: (H, W) tensor}`` (Dr.Jit, evaluated, gradients kept
+    on AD variants)."""
     w, h = film_size(sensor)
     out = channels(scene, sensor, pixel_rays(sensor, *film_grid(w, h)), table, shade)
     dr.eval(*out.values())
-    return {k: to_numpy(v).reshape(h, w) for k, v in out.items()}
+    TF, TU = mi.TensorXf, mi.TensorXu
+    return {k: (TU if isinstance(v, mi.UInt32) else TF)(v, shape=(h, w)) for k, v in out.items()}
 
 
 def beauty_layers(
@@ -97,16 +98,20 @@ def beauty_layers(
     spp: int,
     seed: int,
     passes: int = 1,
-) -> dict[str, np.ndarray]:
-    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B
-    (in ``passes`` renders when memory asks for it, :mod:`mi_npr.memory`)."""
+) -> dict[str, Any]:
+    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B as
+    (H, W) tensors (in ``passes`` renders when memory asks for it, :mod:`mi_npr.memory`)."""
     img = render_passes(integrator, scene, sensor, spp, seed, passes)
-    a = to_numpy(img)
-    if a.ndim != 3 or a.shape[-1] < 3:
-        # Mono variants or odd films: replicate the first channel.
-        a = a.reshape(a.shape[0], a.shape[1], -1)
-        a = np.repeat(a[..., :1], 3, axis=-1)
-    return {name: a[..., i] for i, name in enumerate(L.RGB)}
+    h, w = (int(v) for v in img.shape[:2])
+    c = int(img.shape[2]) if img.ndim == 3 else 1
+    flat = img.array
+    idx = dr.arange(mi.UInt32, h * w) * c
+    # Mono variants or odd films (fewer than 3 channels): the first channel three times.
+    pick = [min(i, c - 1) if c >= 3 else 0 for i in range(3)]
+    return {
+        name: mi.TensorXf(dr.gather(mi.Float, flat, idx + k), shape=(h, w))
+        for name, k in zip(L.RGB, pick, strict=True)
+    }
 
 
 def render_gbuffer(

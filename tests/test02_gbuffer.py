@@ -14,10 +14,10 @@ def test01_layers_are_contiguous_and_typed():
     ids = np.arange(12, dtype=np.int64).reshape(4, 3)
     gb = GBuffer({"Z": z, "object_id.V": ids, "mask": ids > 3})
     assert gb.shape == (4, 3) and gb.width == 3 and gb.height == 4
-    assert gb["Z"].dtype == np.float32 and gb["Z"].flags["C_CONTIGUOUS"]
-    assert gb["object_id.V"].dtype == np.uint32
-    assert gb["mask"].dtype == np.uint32  # unknown integer-like layers become uint32
-    np.testing.assert_array_equal(gb["Z"], z)
+    assert gb.numpy("Z").dtype == np.float32 and gb.numpy("Z").flags["C_CONTIGUOUS"]
+    assert gb.numpy("object_id.V").dtype == np.uint32
+    assert gb.numpy("mask").dtype == np.uint32  # unknown integer-like layers become uint32
+    np.testing.assert_array_equal(gb.numpy("Z"), z)
 
 
 @pytest.mark.parametrize(
@@ -42,7 +42,7 @@ def test03_with_layers_returns_a_new_buffer():
     assert gb2.objects == {1: "a"} and gb2.names == ("Z", "lines.V")
     assert gb2.without("lines.V") == gb
     with pytest.raises(KeyError, match=r"no layer .N.X.*Z, lines"):
-        gb2["N.X"]
+        gb2.numpy("N.X")
     with pytest.raises(ParameterError, match="background"):
         GBuffer({"Z": np.ones((1, 1))}, objects={0: "bg"})
 
@@ -68,7 +68,7 @@ def test05_camera_dict_round_trip():
 def test06_accepts_drjit_tensors_without_copy():
     t = mi_npr.mi.TensorXf(np.arange(6, dtype=np.float32).reshape(2, 3))
     gb = GBuffer({"Z": t})
-    np.testing.assert_array_equal(gb["Z"], [[0, 1, 2], [3, 4, 5]])
+    np.testing.assert_array_equal(gb.numpy("Z"), [[0, 1, 2], [3, 4, 5]])
 
 
 def test07_object_lookup():

@@ -25,7 +25,7 @@ def test01_mi_render_returns_beauty_then_aovs(write_scene):
     gb = mi_npr.render(scene, seed=3)
     a = img.numpy()
     for i, name in enumerate([*L.RGB, *L.GBUFFER_AOVS]):
-        np.testing.assert_array_equal(a[..., i], gb[name].astype(np.float32), err_msg=name)
+        np.testing.assert_array_equal(a[..., i], gb.numpy(name).astype(np.float32), err_msg=name)
 
 
 def test02_beauty_is_the_nested_integrators_render(write_scene):
@@ -39,8 +39,8 @@ def test02_beauty_is_the_nested_integrators_render(write_scene):
 
 def test03_headlight_without_nested_integrator(write_scene):
     gb = mi_npr.render(write_scene(BALL))
-    hit = gb["object_id.V"] == 1
-    assert np.all(gb["R"][hit] > gb["G"][hit])  # the ball's red albedo shows
+    hit = gb.numpy("object_id.V") == 1
+    assert np.all(gb.numpy("R")[hit] > gb.numpy("G")[hit])  # the ball's red albedo shows
     assert np.all(gb.beauty[~hit] == 0)
     assert gb.metadata["mi_npr/beauty"] == "headlight"
 

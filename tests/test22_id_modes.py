@@ -92,11 +92,11 @@ def test04_layers_and_rays_agree(mode):
     idx = np.arange(w * h)
     ray = pixel_rays(scene.sensors()[0], mi.Float(idx % w + 0.5), mi.Float(idx // w + 0.5))
     got = ids.lookup(scene.ray_intersect_preliminary(ray, coherent=True)).numpy().reshape(h, w)
-    np.testing.assert_array_equal(got, ids.apply(gb["object_id.V"], gb["prim_id.V"]))
+    np.testing.assert_array_equal(got, ids.apply(gb.numpy("object_id.V"), gb.numpy("prim_id.V")))
     assert set(np.unique(got)) <= {0, *ids.names}
     if mode == "primitive":
-        sphere = gb["object_id.V"] == gb.find_object("sphere_mesh")
-        np.testing.assert_array_equal(got[sphere], gb["prim_id.V"][sphere] + 3)
+        sphere = gb.numpy("object_id.V") == gb.find_object("sphere_mesh")
+        np.testing.assert_array_equal(got[sphere], gb.numpy("prim_id.V")[sphere] + 3)
     dr.eval()
 
 

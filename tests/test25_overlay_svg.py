@@ -31,23 +31,27 @@ def _gb():
 def test01_overlay_draws_red_on_contour_pixels_only():
     gb = _gb()
     out, contours = overlay(gb)
-    layer = out[L.CONTOUR]
+    layer = out.numpy(L.CONTOUR)
     assert layer.dtype == np.uint32
     ref = np.zeros_like(layer)
     for c in trace(gb):
         ref[c.ys, c.xs] = c.object_id
     np.testing.assert_array_equal(layer, ref)
     on = layer != 0
-    assert np.all(out["R"][on] == 1) and np.all(out["G"][on] == 0) and np.all(out["B"][on] == 0)
-    assert np.all(out["R"][~on] == 0.25) and np.all(out["G"][~on] == 0.25)
-    np.testing.assert_array_equal(out["beauty.R"], gb["R"])  # the raw beauty is kept
+    assert (
+        np.all(out.numpy("R")[on] == 1)
+        and np.all(out.numpy("G")[on] == 0)
+        and np.all(out.numpy("B")[on] == 0)
+    )
+    assert np.all(out.numpy("R")[~on] == 0.25) and np.all(out.numpy("G")[~on] == 0.25)
+    np.testing.assert_array_equal(out.numpy("beauty.R"), gb.numpy("R"))  # the raw beauty is kept
     assert out.metadata["mi_npr/contour_method"] == "border"
     assert out.metadata["mi_npr/contour_id_mode"] == "shape"
     assert out.metadata["mi_npr/contour_objects"] == '{"1": "a & <b>", "2": "2nd one"}'
     # Again with another colour: replaces, does not stack.
     again, _ = overlay(out, color=(0, 0, 1))
-    assert np.all(again["R"][on] == 0) and np.all(again["B"][on] == 1)
-    assert np.all(again["R"][~on] == 0.25)
+    assert np.all(again.numpy("R")[on] == 0) and np.all(again.numpy("B")[on] == 1)
+    assert np.all(again.numpy("R")[~on] == 0.25)
     assert len(contours) == 3
 
 
@@ -57,7 +61,7 @@ def test02_overlay_code_direction_layer_is_its_points():
     pts = np.zeros(gb.shape, bool)
     for c in contours:
         pts[c.ys, c.xs] = True
-    np.testing.assert_array_equal(out[L.CONTOUR] != 0, pts)
+    np.testing.assert_array_equal(out.numpy(L.CONTOUR) != 0, pts)
     with pytest.raises(mi_npr.ParameterError, match="method"):
         overlay(gb, method="x")
 

@@ -39,9 +39,9 @@ def test01_writes_png_svg_exr(balls, tmp_path, capsys):
     assert sorted(os.listdir(out)) == ["balls.exr", "balls_contours.png", "balls_contours.svg"]
     gb = read_exr(out / "balls.exr")
     assert {L.CONTOUR, *L.GBUFFER, *L.RAW_RGB} <= set(gb.names)
-    assert gb[L.CONTOUR].dtype == np.uint32 and gb.metadata["mi_npr/spp"] == "3"
-    on = gb[L.CONTOUR] != 0
-    assert set(np.unique(gb[L.CONTOUR][on])) == {1, 2}
+    assert gb.numpy(L.CONTOUR).dtype == np.uint32 and gb.metadata["mi_npr/spp"] == "3"
+    on = gb.numpy(L.CONTOUR) != 0
+    assert set(np.unique(gb.numpy(L.CONTOUR)[on])) == {1, 2}
     png = np.asarray(Image.open(out / "balls_contours.png"))
     assert png.shape == (24, 32, 3) and np.all(png[on] == [255, 0, 0])
     root = ET.parse(out / "balls_contours.svg").getroot()
@@ -100,4 +100,4 @@ def test06_paper_scene(tmp_path):
     args = ["contours", str(SCENES / "scene1.xml"), "-o", str(out), "-D", "width=64"]
     assert cli.main([*args, "-D", "height=48", "--spp", "1"]) == 0
     gb = read_exr(out / "scene1.exr")
-    assert gb.shape == (48, 64) and (gb[L.CONTOUR] != 0).sum() > 100
+    assert gb.shape == (48, 64) and (gb.numpy(L.CONTOUR) != 0).sum() > 100

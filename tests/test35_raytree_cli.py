@@ -35,11 +35,11 @@ def test01_writes_exr_and_overlay_png(glassy, tmp_path):
     gb = read_exr(out / "glassy.exr")
     for name in (L.RAYTREE_HI, L.RAYTREE_LO, *L.EDGES, *L.RAW_RGB, *L.GBUFFER):
         assert name in gb, name
-    assert gb[L.RAYTREE_HI].dtype == np.uint32
+    assert gb.numpy(L.RAYTREE_HI).dtype == np.uint32
     assert gb.metadata["mi_npr/integrator"] == "npr_raytree"
     png = np.asarray(Image.open(out / "glassy_raytree.png"))
     np.testing.assert_array_equal(png, to_rgb8(gb.beauty))
-    real = gb[L.EDGES_REAL] > 0
+    real = gb.numpy(L.EDGES_REAL) > 0
     assert np.all(png[real] == [255, 0, 0])
 
 
@@ -50,7 +50,7 @@ def test02_max_depth_spp_and_defines(glassy, tmp_path):
     assert cli.main(args) == 0
     gb = read_exr(out / "glassy.exr")
     assert gb.metadata["mi_npr/raytree_max_depth"] == "1" and gb.metadata["mi_npr/spp"] == "3"
-    assert not gb[L.EDGES_REFLECTION].any()
+    assert not gb.numpy(L.EDGES_REFLECTION).any()
 
 
 def test03_paper_scenes_with_defines(scenes, tmp_path):
@@ -67,7 +67,7 @@ def test03_paper_scenes_with_defines(scenes, tmp_path):
         "scene2_raytree.svg",
     ]
     one, two = read_exr(out / "scene1.exr"), read_exr(out / "scene2.exr")
-    np.testing.assert_array_equal(one[L.EDGES_REAL], two[L.EDGES_REAL])
+    np.testing.assert_array_equal(one.numpy(L.EDGES_REAL), two.numpy(L.EDGES_REAL))
 
 
 @pytest.mark.parametrize(

@@ -90,8 +90,8 @@ def test03_rendered_file_names_and_types(rendered):
     assert types[L.OBJECT_ID] == np.float32 and types[L.PRIM_ID] == np.float32
     assert json.loads(header["mi_npr/integer_layers"]) == [L.OBJECT_ID, L.PRIM_ID]
     back = read_exr(rendered[3])
-    assert back[L.OBJECT_ID].dtype == np.uint32
-    np.testing.assert_array_equal(back[L.OBJECT_ID], gb[L.OBJECT_ID])
+    assert back.numpy(L.OBJECT_ID).dtype == np.uint32
+    np.testing.assert_array_equal(back.numpy(L.OBJECT_ID), gb.numpy(L.OBJECT_ID))
 
 
 def _project(M_row: np.ndarray, P: np.ndarray) -> np.ndarray:
@@ -102,7 +102,7 @@ def _project(M_row: np.ndarray, P: np.ndarray) -> np.ndarray:
 
 def test04_world_to_ndc_puts_P_on_its_pixel_centre(rendered):
     gb, header, _, _ = rendered
-    hit = gb[L.OBJECT_ID] > 0
+    hit = gb.numpy(L.OBJECT_ID) > 0
     assert hit.sum() > 100 and (~hit).sum() > 0
     ys, xs = np.nonzero(hit)
     P = gb.positions[hit].astype(np.float64)
@@ -116,10 +116,10 @@ def test04_world_to_ndc_puts_P_on_its_pixel_centre(rendered):
 
 def test05_world_to_camera_is_right_up_forward(rendered):
     gb, header, _, _ = rendered
-    hit = gb[L.OBJECT_ID] > 0
+    hit = gb.numpy(L.OBJECT_ID) > 0
     ys, xs = np.nonzero(hit)
     cam = _project(header["worldToCamera"], gb.positions[hit].astype(np.float64))
-    np.testing.assert_allclose(cam[:, 2], gb["Z"][hit], rtol=1e-5)  # +z: the view axis depth
+    np.testing.assert_allclose(cam[:, 2], gb.numpy("Z")[hit], rtol=1e-5)  # +z: the view axis depth
     # +x right: the rightmost hit pixels have the largest x over z; +y up: top rows the largest y
     sx, sy = cam[:, 0] / cam[:, 2], cam[:, 1] / cam[:, 2]
     assert np.corrcoef(sx, xs)[0, 1] > 0.99 and np.corrcoef(sy, -ys)[0, 1] > 0.99
@@ -145,4 +145,4 @@ def test07_old_files_read_under_the_new_names(tmp_path):
     ).write(str(p))
     gb = read_exr(p)
     assert set(gb.names) == {L.OBJECT_ID, L.EDGES_REAL}
-    np.testing.assert_array_equal(gb[L.OBJECT_ID], ids)
+    np.testing.assert_array_equal(gb.numpy(L.OBJECT_ID), ids)

@@ -159,7 +159,7 @@ def test03_layers_metadata_and_manifest(written):
 def test04_masks_match_exact_ids_where_a_pixel_is_one_object(written):
     gb, (crypto, _), rfilter = written
     manifest, ranks = crypto["CryptoObject"]
-    ids = gb[L.OBJECT_ID].astype(np.int64)
+    ids = gb.numpy(L.OBJECT_ID).astype(np.int64)
     r = 3 if rfilter == "gaussian" else 1  # reach of the filter, plus a pixel for thin parts
     pad = np.pad(ids, r, mode="edge")
     h, w = ids.shape
@@ -188,7 +188,7 @@ def test05_coverage_sums_to_one_where_covered_and_is_ranked(written):
         assert np.all(covs >= 0) and np.all(np.diff(covs, axis=0) <= 1e-7)  # sorted
         total = covs.sum(axis=0)
         assert total.max() <= 1 + 1e-5
-        ids = gb[L.OBJECT_ID]
+        ids = gb.numpy(L.OBJECT_ID)
         pad = np.pad(ids, 3, mode="edge")
         h, w = ids.shape
         covered = np.ones_like(ids, bool)
@@ -253,7 +253,7 @@ def test07_integrator_parameter(write_scene):
     assert img.shape == (12, 16, 3 + len(names))
     gb = mi_npr.render(path)
     for name in C.aov_names():
-        np.testing.assert_array_equal(img[..., 3 + names.index(name)], gb[name])
+        np.testing.assert_array_equal(img[..., 3 + names.index(name)], gb.numpy(name))
     assert any(k.startswith("cryptomatte/") for k in gb.metadata)
     with pytest.raises(mi_npr.SceneError, match="cryptomatte"):
         mi_npr.load_scene(

@@ -115,7 +115,7 @@ def test04_the_frame_is_never_a_contour(tmp_path):
     xml.write_text(scene_xml(body, width=40, height=30))
     scene = mi_npr.load_scene(xml)
     gb = mi_npr.render(scene)
-    assert np.all(gb[L.OBJECT_ID] > 0)  # the wall fills what the sphere leaves
+    assert np.all(gb.numpy(L.OBJECT_ID) > 0)  # the wall fills what the sphere leaves
     paths = vectorize(gb, scene)
     # the sphere is cut by the right edge: open paths; the wall fills the frame: no path of its
     # own along the border, only the part it shares with the sphere
@@ -163,7 +163,7 @@ def test05_cli_svg_image_modes_layers_and_the_png_overlay(sphere, tmp_path, mode
     png = np.asarray(Image.open(out / "sphere_contours.png"))
     red = np.all(png == [255, 0, 0], axis=-1)
     gb = mi_npr.io.read_exr(out / "sphere.exr")
-    on = gb[L.CONTOUR] != 0
+    on = gb.numpy(L.CONTOUR) != 0
     assert np.array_equal(red & on, on)  # every contour pixel is drawn red
     d = group.find(f"{SVG}path").get("d")
     nums = [float(v) for v in d.replace("M", " ").replace("L", " ").replace("Z", " ").split()]
@@ -220,7 +220,7 @@ def test08_lines_and_edges_become_stroke_layers():
     gb = mi_npr.render(SCENES / "scene4.xml", width=64, height=48, spp=1, integrator="npr_lines")
     strokes = mi_npr.contours.stroke_layers(gb)
     assert list(strokes) == ["lines"]
-    mask = gb[L.LINES] > 0.5
+    mask = gb.numpy(L.LINES) > 0.5
     lines, rgb = strokes["lines"]
     assert rgb == (0.0, 0.0, 0.0) and mask.any()
     ys, xs = np.nonzero(mask)
@@ -247,7 +247,7 @@ def test09_raytree_svg_has_one_layer_per_edge_class(tmp_path):
     ]
     gb = mi_npr.io.read_exr(tmp_path / "scene1.exr")
     for name in L.EDGES:
-        mask = gb[name] > 0.5
+        mask = gb.numpy(name) > 0.5
         polys = []
         for p in layers[name.split(".")[0]].findall(f"{SVG}path"):
             d = p.get("d").replace("M", " ").replace("L", " ").replace("Z", " ")

@@ -59,7 +59,7 @@ def test01_whole_silhouette_at_any_scale(tmp_path, scale, dist):
     path = tmp_path / "ball.xml"
     path.write_text(_scene(scale, dist, fov))
     gb = mi_npr.render(path)
-    ball = np.isfinite(np.asarray(gb["Z"]))
+    ball = np.isfinite(np.asarray(gb.numpy("Z")))
     analytic = analytic_mask(dist, fov)
     assert (ball != analytic).sum() <= 4  # the render is the analytic sphere (rounding at rims)
     rim, rim8 = _rim(ball), _rim(ball, diagonal=True)

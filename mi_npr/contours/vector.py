@@ -307,10 +307,13 @@ def stroke_layers(
 
     out: dict[str, tuple[list[np.ndarray], tuple[float, float, float]]] = {}
     if L.LINES in gb:
-        out[L.LINES.split(".")[0]] = (trace_strokes(gb[L.LINES] > 0.5, tolerance), (0.0, 0.0, 0.0))
+        out[L.LINES.split(".")[0]] = (
+            trace_strokes(gb.numpy(L.LINES) > 0.5, tolerance),
+            (0.0, 0.0, 0.0),
+        )
     for name, rgb in COLORS.items():
         if name in gb:
-            out[name.split(".")[0]] = (trace_strokes(gb[name] > 0.5, tolerance), tuple(rgb))
+            out[name.split(".")[0]] = (trace_strokes(gb.numpy(name) > 0.5, tolerance), tuple(rgb))
     return out
 
 

@@ -135,9 +135,10 @@ def write_exr(path: str | os.PathLike[str], gbuffer: GBuffer) -> Path:
     if not isinstance(gbuffer, GBuffer):
         raise TypeError(f"write_exr expects a GBuffer, got {type(gbuffer).__name__}")
     target = Path(path)
-    channels = {k: _file_layer(target, k, v) for k, v in gbuffer.layers.items()}
+    layers = {k: gbuffer.numpy(k) for k in gbuffer.names}
+    channels = {k: _file_layer(target, k, v) for k, v in layers.items()}
     header = _header(gbuffer)
-    ints = [k for k, v in gbuffer.layers.items() if v.dtype != channels[k].dtype]
+    ints = [k for k, v in layers.items() if v.dtype != channels[k].dtype]
     if ints:
         header[_INTEGER] = json.dumps(ints)
     with atomic_output(target) as tmp:
@@ -236,7 +237,7 @@ def describe(gb: GBuffer) -> dict[str, Any]:
     """A JSON-friendly summary: size, layers (type, range), object table, camera, metadata."""
     info_layers = []
     for name in gb.names:
-        a = gb[name]
+        a = gb.numpy(name)
         finite = a[np.isfinite(a)] if a.dtype.kind == "f" else a
         info_layers.append(
             {
