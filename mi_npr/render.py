@@ -89,11 +89,67 @@ def gbuffer_layers(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, shade
     return {k: to_numpy(v).reshape(h, w) for k, v in out.items()}
 
 
-def beauty_layers(
+#: A beauty render estimated longer than this (seconds) is rendered in passes with a progress bar.
+PROGRESS_AFTER = 2.0
+#: Seconds per pass of a beauty rendered in passes (the bar's update rate).
+PASS_SECONDS = 0.5
+
+
+def _render_in_passes(
     scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Integrator, spp: int, seed: int
+) -> Any:
+    """The beauty of ``spp`` samples, with a progress bar on stderr when it is long.
+
+    A 1-spp probe estimates the time of the whole render; under :data:`PROGRESS_AFTER` seconds
+    the beauty is one ``render`` call (the same image as without progress). Longer renders run
+    as passes of ~:data:`PASS_SECONDS`, each ``render(seed=k, spp=part)`` with its own seed,
+    averaged weighted by their spp: the same estimator as one render of ``spp`` samples with
+    other random numbers."""
+    import time
+
+    def one(seed_k: int, n: int) -> Any:
+        img = integrator.render(scene, sensor, seed=seed_k, spp=n, develop=True, evaluate=True)
+        dr.eval(img)
+        dr.sync_thread()
+        return img
+
+    t0 = time.perf_counter()
+    one(seed, 1)
+    estimate = (time.perf_counter() - t0) * spp
+    if estimate < PROGRESS_AFTER:
+        return one(seed, spp)
+    from tqdm import tqdm
+
+    passes = min(spp, max(2, int(estimate / PASS_SECONDS)))
+    parts = [spp // passes + (k < spp % passes) for k in range(passes)]
+    acc = None
+    with tqdm(total=spp, desc="beauty", unit="spp", leave=False) as bar:
+        for k, n in enumerate(parts):
+            img = one((seed * 1000003 + k) % 2**31, n)
+            acc = img * (n / spp) if acc is None else acc + img * (n / spp)
+            dr.eval(acc)
+            bar.update(n)
+    return acc
+
+
+def beauty_layers(
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    integrator: mi.Integrator,
+    spp: int,
+    seed: int,
+    progress: bool = False,
 ) -> dict[str, np.ndarray]:
-    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B."""
-    img = integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
+    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B.
+    With ``progress`` (and stderr a terminal), a long render shows a bar with its ETA
+    (:func:`_render_in_passes`)."""
+    import sys
+
+    total = spp or sensor.sampler().sample_count()
+    if progress and total >= 4 and sys.stderr.isatty():
+        img = _render_in_passes(scene, sensor, integrator, total, seed)
+    else:
+        img = integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
     a = to_numpy(img)
     if a.ndim != 3 or a.shape[-1] < 3:
         # Mono variants or odd films: replicate the first channel.
@@ -109,8 +165,10 @@ def render_gbuffer(
     spp: int | None = None,
     seed: int = 0,
     source: str | None = None,
+    progress: bool = False,
 ) -> GBuffer:
-    """The G-buffer of a loaded scene; ``beauty`` is the integrator for ``R G B`` (or none).
+    """The G-buffer of a loaded scene; ``beauty`` is the integrator for ``R G B`` (or none);
+    ``progress``: a progress bar for a long beauty (:func:`beauty_layers`).
 
     ``spp`` overrides the sensor's sample count for the beauty image (``None`` keeps it). The
     G-buffer channels are always one exact sample per pixel.
@@ -126,7 +184,7 @@ def render_gbuffer(
         table = session.objects
         layers = gbuffer_layers(session.scene, sensor, table, shade=beauty is None)
         if beauty is not None:
-            layers.update(beauty_layers(session.scene, sensor, beauty, spp or 0, seed))
+            layers.update(beauty_layers(session.scene, sensor, beauty, spp or 0, seed, progress))
     ordered = {k: layers[k] for k in L.GBUFFER}
     spp_used = spp if spp is not None else sensor.sampler().sample_count()
     meta = {

@@ -5,8 +5,12 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from .. import layers as L
+from ..compose import raw_beauty
 from ..gbuffer import GBuffer
 from ._atomic import atomic_output, check_writable_dir
 from .exr import describe, read_exr, write_exr
@@ -39,6 +43,68 @@ def write_outputs(
     return out
 
 
+def write_layered_outputs(
+    result: Any,
+    outdir: str | os.PathLike[str],
+    stem: str,
+    *,
+    only: str | None = None,
+    line_color: Sequence[float] | None = None,
+    paper: Sequence[float] | None = None,
+    beauty_in_svg: bool = True,
+) -> list[Path]:
+    """The files of a :class:`~mi_npr.pipeline.LayeredRender`, in ``outdir``:
+
+    - ``<stem>.exr`` (every layer) and ``<stem>.png`` (the beauty, with the lines if drawn);
+    - ``<stem>_lines.png`` (the lines alone, :func:`write_outputs`), ``<stem>_contours.png`` and
+      ``<stem>_contours.svg``, ``<stem>_raytree.png``: one picture per drawing.
+
+    ``only="contours"`` (or ``"raytree"``) writes what the ``contours`` (``raytree``) command
+    writes: that drawing's files, its EXR named ``<stem>_contours.exr`` (``_raytree``) with
+    ``R G B`` holding the drawing, so the shorthands never overwrite ``render``'s files.
+    Everything is computed before the first file is written; each file is written atomically.
+    """
+    from ..drawing import INK, PAPER, drawing
+
+    d = check_writable_dir(outdir, create=True)
+    gb = result.gbuffer
+    if only is not None:
+        picture = result.pictures[only]
+        rgb = {c: np.ascontiguousarray(picture[..., i]) for i, c in enumerate(L.RGB)}
+        files: list[tuple[str, Any]] = [(f"{stem}_{only}.exr", gb.with_layers(rgb))]
+        files.append((f"{stem}_{only}.png", picture))
+    else:
+        files = [(f"{stem}.exr", gb), (f"{stem}.png", gb.beauty)]
+        if L.LINES in gb:
+            sheet = drawing(gb, INK if line_color is None else line_color, paper or PAPER)
+            files.append((f"{stem}_lines.png", sheet))
+        for name in ("contours", "raytree"):
+            if name in result.pictures:
+                files.append((f"{stem}_{name}.png", result.pictures[name]))
+    svg = None
+    if "contours" in result.pictures and only in (None, "contours"):
+        meta = gb.metadata
+        color = tuple(float(v) for v in meta.get("mi_npr/contour_color", "1,0,0").split(","))
+        svg = svg_document(
+            result.contours,
+            gb.width,
+            gb.height,
+            beauty=raw_beauty(gb) if beauty_in_svg else None,
+            color=color,
+            stroke_width=float(meta.get("mi_npr/contour_line_width", "1")),
+            title=meta.get("mi_npr/scene", stem),
+        )
+    out = []
+    for name, data in files:
+        if name.endswith(".exr"):
+            out.append(write_exr(d / name, data))
+        else:
+            out.append(write_png(d / name, data))
+    if svg is not None:
+        out.append(write_text(d / f"{stem}_contours.svg", svg))
+    return out
+
+
 __all__ = [
     "atomic_output",
     "check_writable_dir",
@@ -49,6 +115,7 @@ __all__ = [
     "to_rgb8",
     "write_contour_outputs",
     "write_exr",
+    "write_layered_outputs",
     "write_outputs",
     "write_png",
     "write_svg",
