@@ -137,15 +137,28 @@ def _layer_params() -> dict[str, tuple]:
         return {}
 
 
-def _param_type(param: object) -> object:
-    t = getattr(param, "type", str)
-    if t is tuple:
-        return _rgb
-    if t is float:
-        return float
-    if t is int:
-        return int
-    return str  # strings, and booleans (true/false, checked like the XML's)
+def _param_type(param: object, plugin: str) -> object:
+    """Parse and check a flag's value like the plugin checks the XML's (a usage error)."""
+    from .errors import ParameterError
+    from .params import coerce
+
+    def parse(text: str) -> object:
+        t = getattr(param, "type", str)
+        try:
+            value: object = text
+            if t is tuple:
+                value = _rgb(text)
+            elif t in (float, int):
+                try:
+                    value = float(text) if t is float else int(text)
+                except ValueError:
+                    kind = "a number" if t is float else "an integer"
+                    raise argparse.ArgumentTypeError(f"{text!r} is not {kind}") from None
+            return coerce(plugin, param, value)  # type: ignore[arg-type]
+        except ParameterError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+
+    return parse
 
 
 #: Parameters given as repeatable flags (shell globs), joined with commas like the XML's.
@@ -175,7 +188,11 @@ def _layer_arguments(cmd: argparse.ArgumentParser, layers: Sequence[str]) -> Non
         else:
             metavar = {tuple: "R,G,B", float: "X", int: "N", bool: "BOOL"}.get(param.type, "STR")
             group.add_argument(
-                flag, dest=f"p_{name}", type=_param_type(param), metavar=metavar, help=help_text
+                flag,
+                dest=f"p_{name}",
+                type=_param_type(param, f"npr_{entries[0][0]}"),
+                metavar=metavar,
+                help=help_text,
             )
 
 

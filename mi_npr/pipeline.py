@@ -191,5 +191,7 @@ def render_layers(
         new.update({k: drawn[k] for k in drawn.names if k not in gb and k not in new})
         meta.update(drawn.metadata)
     if new:
-        out.gbuffer = gb.with_layers(new).with_metadata(**meta, **{"mi_npr/drawings": ",".join(on)})
+        meta["mi_npr/drawings"] = ",".join(on)
+        meta["mi_npr/integrator"] = "+".join(LAYERS[d] for d in on)
+        out.gbuffer = gb.with_layers(new).with_metadata(**meta)
     return out

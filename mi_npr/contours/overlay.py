@@ -116,7 +116,8 @@ def overlay(
     check_method(method)
     mapped, names = mode_ids(gb, scene, id_mode, only, ignore)
     contours = trace(mapped, objects=names, method=method)
-    contours = one_sided(contours, owned(mapped, gb[L.Z]))
+    depth = gb.get(L.Z)  # without depth, the larger id owns every edge
+    contours = one_sided(contours, owned(mapped, np.zeros(gb.shape) if depth is None else depth))
     layer = contour_layer(contours, gb.shape)
     raw = raw_beauty(gb)
     base = gb.with_layers({c: raw[..., i] for i, c in enumerate(L.RGB)})

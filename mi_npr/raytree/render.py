@@ -47,6 +47,14 @@ def scene_max_depth(scene: mi.Scene) -> int:
     return 3
 
 
+def scene_shadow_lights(scene: mi.Scene) -> str:
+    """The ``shadow_lights`` of the scene's ``npr_raytree`` integrator, else ``"hard"``."""
+    integ = scene.integrator()
+    if getattr(integ, "PLUGIN", None) == "npr_raytree":
+        return str(integ.params["shadow_lights"])
+    return HARD
+
+
 def _slice(trees: Trees, start: int, count: int) -> Trees:
     idx = dr.arange(mi.UInt32, count) + start
 
