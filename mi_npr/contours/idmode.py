@@ -218,6 +218,8 @@ def id_map(
                 if comp.max() > 0:
                     parts = comp
         if parts is None:
+            if id_mode == "shape":  # shape ids stay the object table's, whatever is selected
+                next_id = sid
             names[next_id] = name
             lut_parts.append(np.array([next_id], np.uint32))
             slot, next_id = slot + 1, next_id + 1
