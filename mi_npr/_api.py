@@ -26,7 +26,7 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import contours, foliage, io, kernels, raytree, viewpoint  # noqa: E402
+from . import contours, foliage, io, kernels, pipeline, raytree, viewpoint  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -49,6 +49,7 @@ __all__ = [
     "load_scene",
     "mi",
     "object_table",
+    "pipeline",
     "raytree",
     "render",
     "render_gbuffer",
