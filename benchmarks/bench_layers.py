@@ -80,7 +80,7 @@ def _median(fn, repeat: int) -> float:
 
 
 def main() -> None:
-    args = _common.parse_args(__doc__, lambda *a: (lambda: None), "320 x 180, 2 repeats")
+    args = _common.parse_args(__doc__, lambda *a: lambda: None, "320 x 180, 2 repeats")
     if args is None:
         return
     import mi_npr

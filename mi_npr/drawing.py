@@ -1,5 +1,6 @@
-"""The line drawing alone (issue 19): ``<stem>_lines.png``, ink on paper, and the render that
-takes the command line's line options (``--line-width``, ``--line-aa``, ``--line-color``).
+"""The line drawing alone (issue 19): ``<stem>_lines.png``, ink on paper; the ``lines`` layer
+added to a G-buffer (:func:`add_lines`, the ``npr_lines`` plugin's pass and ``mi-npr render
+--lines``); the object-selection parameters every per-object drawing takes (issue 14).
 
 The ``lines`` layer is coverage in [0, 1]; the drawing is ``paper * (1 - lines) + line_color *
 lines`` in linear RGB (black ink on white by default), written sRGB-encoded like every PNG.
@@ -7,7 +8,6 @@ lines`` in linear RGB (black ink on white by default), written sRGB-encoded like
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -18,9 +18,6 @@ from .compose import over
 from .errors import ParameterError
 from .gbuffer import GBuffer
 from .params import Param
-from .render import render as render_gbuffer
-from .scene import merge_defines
-from .session import SceneSession
 
 #: Black ink on white paper (linear RGB).
 INK, PAPER = (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
@@ -37,11 +34,10 @@ def drawing(
     return over(sheet, gb[L.LINES], line_color)
 
 
-#: Parameters every per-object drawing takes (npr_lines, npr_contours, npr_raytree): what one
-#: object is and which objects are drawn (:mod:`mi_npr.contours.idmode`).
 def selection_params(modes: Sequence[str] | None = None) -> tuple[Param, ...]:
-    """The ``id_mode``, ``only`` and ``ignore`` plugin parameters (``modes``: the id modes
-    allowed, default all)."""
+    """The ``id_mode``, ``only`` and ``ignore`` parameters of every per-object drawing
+    (``npr_lines``, ``npr_contours``, ``npr_raytree``): what one object is and which objects are
+    drawn (:mod:`mi_npr.contours.idmode`); ``modes``: the id modes allowed (default all)."""
     from .contours.idmode import ID_MODES
 
     allowed = tuple(modes or ID_MODES)
@@ -91,33 +87,3 @@ def add_lines(scene: Any, sensor: Any, gb: GBuffer, params: Mapping[str, Any]) -
     meta = json.dumps({**chain, "line_aa": n, **sel})
     gb = gb.with_layers({L.LINES: ink}).with_metadata(**{"mi_npr/lines": meta})
     return with_overlay(gb, ink, params["line_color"])
-
-
-def render_lines(
-    scene: str | os.PathLike[str],
-    *,
-    line_width: float | None = None,
-    line_aa: int | None = None,
-    line_color: Sequence[float] | None = None,
-    spp: int | str | None = None,
-    seed: int = 0,
-    defines: Mapping[str, Any] | None = None,
-) -> GBuffer:
-    """:func:`mi_npr.render` with the scene's ``npr_lines`` parameters ``line_width``,
-    ``line_aa`` and ``line_color`` overridden where given (not ``None``); giving one for a
-    scene whose integrator is not ``npr_lines`` is an error naming the scene."""
-    given = {"line_width": line_width, "line_aa": line_aa, "line_color": line_color}
-    given = {k: v for k, v in given.items() if v is not None}
-    if not given:
-        return render_gbuffer(scene, spp=spp, seed=seed, defines=defines)
-    session = SceneSession.open(scene, spp=spp, defines=merge_defines(defines, {}))
-    integrator = session.scene.integrator()
-    if getattr(integrator, "PLUGIN", None) != "npr_lines":
-        flags = ", ".join("--" + k.replace("_", "-") for k in given)
-        used = getattr(integrator, "PLUGIN", None) or integrator.class_name()
-        raise ParameterError(
-            f"{session.name}: {flags}: only for the npr_lines integrator "
-            f"(the scene uses {used}; try -D integrator=npr_lines)"
-        )
-    integrator.set_params(**given)
-    return integrator.npr_gbuffer(session, spp=session.spp, seed=seed)

@@ -97,17 +97,19 @@ def _depth(v: int) -> str | None:
     return None if 1 <= v <= MAX_DEPTH else f"must be in 1..{MAX_DEPTH}"
 
 
-def _lights(v: str) -> str | None:
-    return check_shadow_lights(v)
-
-
 class NprRayTreeIntegrator(NprIntegrator):
     """Ray-tree signatures and classified edges (see the module docstring for the manual)."""
 
     PLUGIN = "npr_raytree"
     PARAMS = (
         Param("max_depth", int, 3, "levels of the ray trees", _depth),
-        Param("shadow_lights", str, HARD, "lights of shadow edges: hard, all or names", _lights),
+        Param(
+            "shadow_lights",
+            str,
+            HARD,
+            "lights of shadow edges: hard, all or names",
+            check_shadow_lights,
+        ),
         *selection_params(OBJECT_MODES),
         Param("line_width", float, 1.0, "width of the drawn edges, in pixels", line_width),
     )

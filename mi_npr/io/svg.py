@@ -171,7 +171,8 @@ def write_contour_outputs(
     *,
     beauty_in_svg: bool = True,
 ) -> list[Path]:
-    """What ``mi-npr contours`` writes: ``<stem>.exr`` (every layer, ``contour`` included),
+    """What ``mi-npr contours`` writes: ``<stem>_contours.exr`` (every layer, ``contour``
+    included),
     ``<stem>_contours.png`` (R G B: the beauty with the contours drawn) and
     ``<stem>_contours.svg`` (the contours as paths, over the raw beauty unless
     ``beauty_in_svg=False``), in ``outdir``. The SVG's colour is the GBuffer's
@@ -195,7 +196,7 @@ def write_contour_outputs(
         title=gb.metadata.get("mi_npr/scene", stem),
     )
     return [
-        write_exr(d / f"{stem}.exr", gb),
+        write_exr(d / f"{stem}_contours.exr", gb),
         write_png(d / f"{stem}_contours.png", gb.beauty),
         svg,
     ]
