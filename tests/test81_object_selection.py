@@ -177,3 +177,22 @@ def owned_reference_any(ids: np.ndarray, z: np.ndarray) -> np.ndarray:
                 if 0 <= v < h and 0 <= u < w and ids[v, u] < ids[y, x]:
                     out[y, x] = True
     return out
+
+
+def test07_the_same_choices_as_xml_parameters(tmp_path):
+    """npr_contours' only/ignore/id_mode in XML draw what the flags draw."""
+    path = room(tmp_path)
+    flags = render_layers(
+        path, ["contours"], {"only": "box_*,floor", "ignore": "box_b"}, resolution=(40, 40)
+    )
+    xml = path.read_text().replace(
+        '<integrator type="path"><integer name="max_depth" value="3"/></integrator>',
+        '<integrator type="npr_contours"><string name="only" value="box_*, floor"/>'
+        '<string name="ignore" value="box_b"/>'
+        '<integrator type="path"><integer name="max_depth" value="3"/></integrator></integrator>',
+    )
+    path.write_text(xml)
+    gb = mi_npr.render(path, res=40)
+    np.testing.assert_array_equal(gb[L.CONTOUR], flags.gbuffer[L.CONTOUR])
+    assert set(np.unique(gb[L.CONTOUR])) == {0, gb.find_object("box_a"), gb.find_object("floor")}
+    np.testing.assert_array_equal(gb.beauty, flags.pictures["contours"])
