@@ -105,6 +105,16 @@ class LayeredRender:
     pictures: dict[str, np.ndarray] = field(default_factory=dict)
     drawings: tuple[str, ...] = ()
 
+    def drawing(self, name: str) -> GBuffer:
+        """The G-buffer with ``R G B`` = the picture of drawing ``name`` (``contours``,
+        ``raytree``): what the shorthands ``mi_npr.contours.render_contours``,
+        ``mi_npr.raytree.render`` and the ``contours``/``raytree`` commands return and write."""
+        if name not in self.pictures:
+            raise ParameterError(f"no {name!r} drawing in this render ({', '.join(self.pictures)})")
+        p = self.pictures[name]
+        rgb = {c: np.ascontiguousarray(p[..., i]) for i, c in enumerate(("R", "G", "B"))}
+        return self.gbuffer.with_layers(rgb).with_metadata(**{"mi_npr/integrator": LAYERS[name]})
+
 
 def render_layers(
     scene: str | os.PathLike[str] | mi.Scene,
@@ -191,7 +201,6 @@ def render_layers(
         new.update({k: drawn[k] for k in drawn.names if k not in gb and k not in new})
         meta.update(drawn.metadata)
     if new:
-        meta["mi_npr/drawings"] = ",".join(on)
         meta["mi_npr/integrator"] = "+".join(LAYERS[d] for d in on)
         out.gbuffer = gb.with_layers(new).with_metadata(**meta)
     return out

@@ -91,7 +91,7 @@ def test03_one_exr_with_every_layer_and_the_scenes_own_beauty(tmp_path):
     gb = read_exr(out / "room.exr")
     for name in (*L.GBUFFER, L.LINES, L.CONTOUR, L.RAYTREE_HI, L.RAYTREE_LO, *L.EDGES, *L.RAW_RGB):
         assert name in gb, name
-    assert gb.metadata["mi_npr/drawings"] == "lines,contours,raytree"
+    assert gb.metadata["mi_npr/integrator"] == "npr_lines+npr_contours+npr_raytree"
     # the beauty is the scene's own path integrator (max_depth 3 kept), untouched by drawings:
     # the same image as mi-npr render without drawings
     plain = tmp_path / "plain"

@@ -153,7 +153,8 @@ def render_contours(
     defines: Mapping[str, Any] | None = None,
     **more: Any,
 ) -> tuple[GBuffer, list[Contour]]:
-    """Render ``scene`` (:func:`mi_npr.render`) and :func:`overlay` its contours.
+    """Render ``scene`` and :func:`overlay` its contours: ``mi-npr contours`` from Python (the
+    ``contours`` drawing of :func:`mi_npr.pipeline.render_layers`, ``R G B`` its picture).
 
     ``method``, ``id_mode`` and ``color`` left at ``None`` take the values of the scene's
     ``npr_contours`` integrator when it has one, else the defaults (``border``, ``shape``, red).
@@ -161,24 +162,18 @@ def render_contours(
     one, like :func:`mi_npr.render`); ``defines`` and the other keyword arguments fill the XML's
     ``<default>``s.
     """
-    from ..render import render
+    from ..pipeline import render_layers
     from ..scene import merge_defines
-    from ..session import SceneSession
 
-    session = SceneSession.open(scene, sensor=sensor, spp=spp, defines=merge_defines(defines, more))
-    integrator = session.scene.integrator()
-    xml = getattr(integrator, "params", {}) if _plugin(integrator) == "npr_contours" else {}
-    gb = render(session.scene, sensor=sensor, spp=session.spp, seed=seed)
-    if session.source is not None:
-        gb = gb.with_metadata(**{"mi_npr/scene": session.source})
-    return overlay(
-        gb,
-        session.scene,
-        method=method or xml.get("method", "border"),
-        id_mode=id_mode or xml.get("id_mode", "shape"),
-        color=color if color is not None else xml.get("color", RED),
+    given = {"method": method, "id_mode": id_mode, "color": color}
+    r = render_layers(
+        scene,
+        ["contours"],
+        {k: v for k, v in given.items() if v is not None},
+        scene_drawings=False,
+        sensor=sensor,
+        spp=spp,
+        seed=seed,
+        defines=merge_defines(defines, more),
     )
-
-
-def _plugin(integrator: Any) -> str | None:
-    return getattr(integrator, "PLUGIN", None)
+    return r.drawing("contours"), r.contours

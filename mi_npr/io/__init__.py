@@ -7,8 +7,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .. import layers as L
 from ..compose import raw_beauty
 from ..gbuffer import GBuffer
@@ -69,10 +67,8 @@ def write_layered_outputs(
     d = check_writable_dir(outdir, create=True)
     gb = result.gbuffer
     if only is not None:
-        picture = result.pictures[only]
-        rgb = {c: np.ascontiguousarray(picture[..., i]) for i, c in enumerate(L.RGB)}
-        files: list[tuple[str, Any]] = [(f"{stem}_{only}.exr", gb.with_layers(rgb))]
-        files.append((f"{stem}_{only}.png", picture))
+        files: list[tuple[str, Any]] = [(f"{stem}_{only}.exr", result.drawing(only))]
+        files.append((f"{stem}_{only}.png", result.pictures[only]))
     else:
         files = [(f"{stem}.exr", gb), (f"{stem}.png", gb.beauty)]
         if L.LINES in gb:

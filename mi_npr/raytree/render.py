@@ -21,7 +21,6 @@ from .. import layers as L
 from ..compose import with_overlays
 from ..gbuffer import GBuffer
 from ..raycast import film_grid, film_size, pixel_rays, require_jit
-from ..render import render_gbuffer
 from ..scene import merge_defines, object_table, sensor_of
 from ..session import SceneSession
 from .edges import any_corner, as_image, classify_edges
@@ -162,17 +161,25 @@ def render(
     defines: Mapping[str, Any] | None = None,
     **more: Any,
 ) -> GBuffer:
-    """Render ``scene`` with the ray-tree layers and overlay, whatever its integrator.
+    """Render ``scene`` with the ray-tree layers and overlay, whatever its integrator:
+    ``mi-npr raytree`` from Python (the ``raytree`` drawing of
+    :func:`mi_npr.pipeline.render_layers`, ``R G B`` its picture).
 
     The beauty comes from the scene's integrator (the nested one of an mi-npr integrator).
-    ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3. ``defines`` and
-    the other keyword arguments fill the XML's ``<default>``s, as in :func:`mi_npr.render`.
+    ``max_depth`` (and ``shadow_lights``, ``id_mode``, ``only``, ``ignore``) default to the
+    scene's ``npr_raytree`` integrator's, else 3 (``hard``, every object). ``defines`` and the
+    other keyword arguments fill the XML's ``<default>``s, as in :func:`mi_npr.render`.
     """
-    session = SceneSession.open(scene, sensor=sensor, spp=spp, defines=merge_defines(defines, more))
-    integ = session.scene.integrator()
-    is_npr = hasattr(integ, "npr_gbuffer")
-    max_depth = check_max_depth(scene_max_depth(session.scene) if max_depth is None else max_depth)
-    beauty = integ.beauty if is_npr else integ
-    gb = render_gbuffer(session, beauty=beauty, spp=session.spp, seed=seed)
-    gb = add_raytree(session, session.sensor, gb, max_depth)
-    return gb.with_metadata(**{"mi_npr/integrator": "npr_raytree"})
+    from ..pipeline import render_layers
+
+    r = render_layers(
+        scene,
+        ["raytree"],
+        {} if max_depth is None else {"max_depth": max_depth},
+        scene_drawings=False,
+        sensor=sensor,
+        spp=spp,
+        seed=seed,
+        defines=merge_defines(defines, more),
+    )
+    return r.drawing("raytree")
