@@ -200,3 +200,15 @@ def test07_progress_passes_and_per_scene_lines(tmp_path, monkeypatch, capsys):
 
     run_jobs(["a", "b"], job, progress=False, on_result=lambda r: (f"done {r.item}", False))
     assert seen[1] == "done a\n"
+
+
+def test08_best_view_takes_the_size_flags(tmp_path):
+    from PIL import Image
+
+    path = ground(tmp_path)
+    out = tmp_path / "view"
+    args = ["best-view", str(path), "--measure", "pb", "--depth", "0", "--res", "24"]
+    assert cli.main([*args, "-o", str(out), "--width", "40", "--height", "30", "--spp", "2"]) == 0
+    assert Image.open(out / "ground_best_view.png").size == (40, 30)
+    xml = (out / "ground_best_view.xml").read_text()
+    assert 'name="width" value="40"' in xml and 'name="sample_count" value="2"' in xml
