@@ -485,7 +485,10 @@ COMMANDS = {
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    # The drawing flags come from the plugins, which exist only once mi-npr starts: when it
+    # cannot, say why (below) rather than call those flags unknown.
+    args, unknown = parser.parse_known_args(argv)
     try:
         import mi_npr
 
@@ -493,6 +496,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             mi_npr._llvm.configure()
         if mi_npr._api.STARTUP_ERROR is not None:  # the variant asked for cannot be activated
             raise mi_npr._api.STARTUP_ERROR
+        if unknown:
+            parser.parse_args(argv)  # a usage error naming the unknown arguments (exit 2)
         if args.variant:
             mi_npr.set_variant(args.variant)
         return COMMANDS[args.command](args)

@@ -5,7 +5,8 @@ blends integer ids across edges. So the G-buffer bypasses the film: the pixel-ce
 :mod:`mi_npr.raycast` (``((x + 0.5) / W, (y + 0.5) / H)`` of the crop window, centre of the lens
 and of the shutter interval) are intersected once and each channel is evaluated as its own planar
 array. The beauty image is the nested integrator's own ``render`` at the film's filter and spp,
-so the two never mix.
+so the two never mix; a long beauty (a 1-spp probe estimates it) can run in passes under a
+progress bar (:func:`beauty_layers`, ``progress=True`` on a terminal).
 
 Per pixel (see :mod:`mi_npr.layers`): ``Z`` camera-space depth along the view axis (+inf on a
 miss), ``P`` world position, ``N`` shading normal, ``object_id``, ``prim_id``, and ``R G B``.
