@@ -8,8 +8,8 @@ Every entry point that takes ``scene`` as an XML path or a loaded ``mi.Scene`` (
   (:func:`mi_npr.scene.load_scene`); ``spp`` (an int or a command-line string) also fills the
   XML's ``spp`` default when the file declares one, and always sets the beauty's sample count;
 - **the sensor** (:func:`mi_npr.scene.sensor_of`: index or object, checked film size);
-  ``resolution=(W, H)`` resizes its film and ``spp`` sets its sampler's count *whatever the
-  XML's* ``<default>`` *names are* (``res``, ``resx``/``resy``, ``width``...): the command
+  ``resolution=(W, H)`` resizes its film and ``spp`` sets the beauty's sample count *whatever
+  the XML's* ``<default>`` *names are* (``res``, ``resx``/``resy``, ``width``...): the command
   line's ``--width/--height/--spp`` (:func:`resize_sensor`);
 - **the object table**, built once per session (:func:`mi_npr.scene.object_table`);
 - **the render lock**: a loaded Mitsuba scene must not be rendered from two threads at once, so
@@ -123,9 +123,9 @@ class SceneSession:
         resolution: tuple[int | None, int | None] | None = None,
         **more: Any,
     ) -> SceneSession:
-        """Load ``scene`` (or take it as it is) and pick ``sensor``; ``resolution`` and
-        ``spp`` resize it (:func:`resize_sensor`: a loaded ``mi.Scene``'s sensor is changed in
-        place)."""
+        """Load ``scene`` (or take it as it is) and pick ``sensor``; ``resolution`` resizes
+        its film (:func:`resize_sensor`: a loaded ``mi.Scene``'s sensor is changed in place);
+        ``spp`` is kept as :attr:`spp`, the sample count every beauty render is given."""
         require_jit()
         defines = merge_defines(defines, more)
         source = os.fspath(scene) if isinstance(scene, (str, os.PathLike)) else None
@@ -135,8 +135,8 @@ class SceneSession:
         resolution = check_resolution(resolution)
         loaded = load_scene(scene, defines)
         picked = sensor_of(loaded, sensor)
-        if resolution is not None or spp is not None:
-            resize_sensor(picked, resolution, spp)
+        if resolution is not None:  # spp is the beauty's render argument (session.spp)
+            resize_sensor(picked, resolution, None)
         return cls(loaded, picked, source, spp)
 
     @property
