@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import matplotlib
@@ -187,6 +188,33 @@ def svg_panel() -> Path:
     return _figure(panels, "svg_scene1.png", (1, 2), (13, 5.1), 80)
 
 
+#: Mitsuba's tutorial scenes (github.com/mitsuba-renderer/mitsuba-tutorials, scenes/): not part
+#: of this repository; the figure below is committed and skipped where they are absent (CI).
+PUBLIC = Path(os.environ.get("MI_NPR_PUBLIC_SCENES", "/work/public/tutorials/scenes"))
+
+
+def selection_panel() -> Path | None:
+    """A real scene (the tutorials' 439-mesh Lego loader) with --id-mode and --only."""
+    path_xml = PUBLIC / "lego" / "scene.xml"
+    if not path_xml.is_file():
+        print(f"skipped selection figure: {path_xml} not found (set MI_NPR_PUBLIC_SCENES)")
+        return None
+    size = {"resolution": (480, 300), "spp": 32}
+    runs = [
+        ({"id_mode": "shape"}, "--contours (every mesh: 439 objects)"),
+        ({"id_mode": "material"}, "--contours --id-mode material (one per BSDF)"),
+        (
+            {"only": "Gear*,Technic*", "ignore": "TechnicBush*"},
+            "--contours --only 'Gear*' --only 'Technic*' --ignore 'TechnicBush*'",
+        ),
+    ]
+    panels = []
+    for params, title in runs:
+        r = mi_npr.pipeline.render_layers(path_xml, ["contours"], params, **size)
+        panels.append((mi_npr.io.to_rgb8(r.pictures["contours"])[40:270, 60:440], title))
+    return _figure(panels, "selection_lego.png", (1, 3), (16, 3.6), 80)
+
+
 PANELS = {
     "overview": overview_panel,
     "gbuffer": gbuffer_panel,
@@ -195,6 +223,7 @@ PANELS = {
     "raytree": raytree_panel,
     "foliage": foliage_panel,
     "svg": svg_panel,
+    "selection": selection_panel,
 }
 
 if __name__ == "__main__":

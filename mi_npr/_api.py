@@ -33,7 +33,7 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import contours, cryptomatte, data, foliage, io, kernels, raytree, viewpoint  # noqa: E402
+from . import contours, cryptomatte, data, foliage, io, kernels, pipeline, raytree, viewpoint  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -59,6 +59,7 @@ __all__ = [
     "load_scene",
     "mi",
     "object_table",
+    "pipeline",
     "raytree",
     "render",
     "render_gbuffer",

@@ -108,22 +108,32 @@ def box_filter(image: Any, n: int) -> Any:
     return mi.TensorXf(mean, shape=(h, w))
 
 
+def _mapped(gb: GBuffer, ids: Any) -> GBuffer:
+    """``gb`` with its ``object_id`` layer in the ids of an
+    :class:`~mi_npr.contours.idmode.IdMap` (id mode and object selection)."""
+    if ids is None or ids.identity:
+        return gb
+    return gb.with_layers({L.OBJECT_ID: ids.apply(gb[L.OBJECT_ID], gb[L.PRIM_ID])})
+
+
 def antialiased_lines(
-    scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer, n: int, **params: Any
+    scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer, n: int, ids: Any = None, **params: Any
 ) -> Any:
     """The ``lines`` layer (an (H, W) tensor) with ``n x n`` rays per pixel (module
     docstring); ``n = 1`` is :func:`mi_npr.kernels.lines` on ``gb`` itself. ``gb`` is the
     film-resolution G-buffer (for ``bright_fade``); ``params`` are those of
-    :data:`~mi_npr.kernels.LINES_PARAMS`."""
+    :data:`~mi_npr.kernels.LINES_PARAMS`. ``ids`` (an :class:`~mi_npr.contours.idmode.IdMap`)
+    replaces the object ids that ID edges and creases read: another id mode, unselected
+    objects as background."""
     problem = aa_factor(n)
     if problem:
         raise ParameterError(f"line_aa = {n!r}: {problem}")
     check_values("lines", LINES_PARAMS, params)
     if n == 1:
-        return lines(gb, **params)
+        return lines(_mapped(gb, ids), **params)
     width = float(params.get("line_width", 1.0))
     check_aa_width(width, n)
-    big = supersampled_gbuffer(scene, sensor, n)
+    big = _mapped(supersampled_gbuffer(scene, sensor, n), ids)
     if params.get("leaf_edges"):
         from .foliage.leaves import leaf_id_layer
 

@@ -3,6 +3,7 @@ others: what the CLI's multi-scene commands share. Errors become one-line messag
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -53,8 +54,12 @@ def run_jobs(
     progress: bool = True,
     traceback: bool = False,
     desc: str = "rendering",
+    on_result: Callable[[JobResult], tuple[str, bool]] | None = None,
 ) -> list[JobResult]:
-    """Run ``job`` on every item; a failing item is recorded and the next one runs."""
+    """Run ``job`` on every item; a failing item is recorded and the next one runs.
+
+    ``on_result(result) -> (line, is_error)``: a line printed as soon as that item is done
+    (stderr for errors, stdout otherwise), above the progress bar when there is one."""
     results: list[JobResult] = []
     bar: Any = None
     if progress and len(items) > 1:
@@ -76,6 +81,13 @@ def run_jobs(
             res.error = f"{item}: internal error: {type(e).__name__}: {one_line(e)}"
         res.seconds = time.perf_counter() - t0
         results.append(res)
+        if on_result is not None:
+            line, is_error = on_result(res)
+            stream = sys.stderr if is_error else sys.stdout
+            if bar is not None:
+                bar.write(line, file=stream)
+            else:
+                print(line, file=stream, flush=True)
         if bar is not None:
             bar.update(1)
     if bar is not None:

@@ -103,14 +103,118 @@ def _scene_batch_arguments(cmd: argparse.ArgumentParser, name: str) -> None:
     )
     cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
     _define_argument(cmd)
-    cmd.add_argument(
-        "--spp", type=cli_type(name, "--spp"), help="samples per pixel of the beauty image"
-    )
+    _size_arguments(cmd, name)
     cmd.add_argument(
         "--seed", type=cli_type(name, "--seed"), default=0, help="sampler seed (default 0)"
     )
-    cmd.add_argument("--no-progress", action="store_true", help="no progress bar")
+    cmd.add_argument(
+        "--no-progress", action="store_true", help="no progress bars (shown on a terminal)"
+    )
     _memory_argument(cmd)
+
+
+def _size_arguments(cmd: argparse.ArgumentParser, name: str) -> None:
+    """``--width``, ``--height``, ``--spp``: the film and sampler of any scene, whatever the
+    names of its ``<default>``\\ s (``res``, ``resx``, ``width``...)."""
+    cmd.add_argument(
+        "--width",
+        type=cli_type(name, "--width"),
+        metavar="W",
+        help="film width (alone: keeps the aspect)",
+    )
+    cmd.add_argument(
+        "--height",
+        type=cli_type(name, "--height"),
+        metavar="H",
+        help="film height (alone: keeps the aspect)",
+    )
+    cmd.add_argument(
+        "--spp", type=cli_type(name, "--spp"), metavar="N", help="samples per pixel of the beauty"
+    )
+
+
+def _layer_params() -> dict[str, tuple]:
+    """The drawings' plugin parameters (``mi_npr.pipeline.LAYERS``), read from the plugins;
+    empty when mi-npr cannot start (``main`` then reports why)."""
+    try:
+        import mi_npr
+
+        if mi_npr.LLVM is None or mi_npr._api.STARTUP_ERROR is not None:
+            return {}
+        from .pipeline import LAYERS, layer_params
+
+        return {layer: layer_params(layer) for layer in LAYERS}
+    except Exception:
+        return {}
+
+
+def _param_type(param: object, plugin: str) -> object:
+    """Parse and check a flag's value like the plugin checks the XML's (a usage error)."""
+    from .errors import ParameterError
+    from .params import coerce
+
+    def parse(text: str) -> object:
+        t = getattr(param, "type", str)
+        try:
+            value: object = text
+            if t is tuple:
+                value = _rgb(text)
+            elif t in (float, int):
+                try:
+                    value = float(text) if t is float else int(text)
+                except ValueError:
+                    kind = "a number" if t is float else "an integer"
+                    raise argparse.ArgumentTypeError(f"{text!r} is not {kind}") from None
+            return coerce(plugin, param, value)  # type: ignore[arg-type]
+        except ParameterError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+
+    return parse
+
+
+#: Parameters given as repeatable flags (shell globs), joined with commas like the XML's.
+_REPEATABLE = ("only", "ignore")
+
+
+def _layer_arguments(cmd: argparse.ArgumentParser, layers: Sequence[str]) -> None:
+    """One flag per plugin parameter of ``layers`` (``--crease-angle`` for ``crease_angle``),
+    generated from the plugins' PARAMS tables: a name several plugins share is one flag that
+    sets it in every drawing that takes it (``--line-width``, ``--id-mode``, ``--only``)."""
+    table = _layer_params()
+    by_name: dict[str, list] = {}
+    for layer in layers:
+        for param in table.get(layer, ()):
+            by_name.setdefault(param.name, []).append((layer, param))
+    group = cmd.add_argument_group("drawing parameters (named after the plugins' parameters)")
+    for name, entries in by_name.items():
+        param = entries[0][1]
+        plugins = "/".join(f"npr_{layer}" for layer, _ in entries)
+        default = param.default if param.type is not tuple else ",".join(map(str, param.default))
+        help_text = f"{plugins}: {param.doc} (default: the scene's, else {default!s})"
+        flag = "--" + name.replace("_", "-")
+        if name in _REPEATABLE:
+            group.add_argument(
+                flag, dest=f"p_{name}", action="append", metavar="GLOB", help=help_text
+            )
+        else:
+            metavar = {tuple: "R,G,B", float: "X", int: "N", bool: "BOOL"}.get(param.type, "STR")
+            group.add_argument(
+                flag,
+                dest=f"p_{name}",
+                type=_param_type(param, f"npr_{entries[0][0]}"),
+                metavar=metavar,
+                help=help_text,
+            )
+
+
+def _layer_values(args: argparse.Namespace) -> dict:
+    """The drawing parameters given on the command line: ``{name: value}``."""
+    out = {}
+    for key, value in vars(args).items():
+        if key.startswith("p_") and value is not None:
+            name = key[2:]
+            out[name] = ",".join(value) if name in _REPEATABLE else value
+    return out
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -123,26 +227,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--traceback", action="store_true", help="show tracebacks of internal errors")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    r = sub.add_parser("render", help="render scenes to multi-layer EXR + PNG")
+    r = sub.add_parser(
+        "render",
+        allow_abbrev=False,
+        help="render scenes: one EXR with every layer, a PNG per drawing (--lines, --contours...)",
+    )
     _scene_batch_arguments(r, "render")
-    r.add_argument(
-        "--line-width",
-        type=cli_type("render", "--line-width"),
-        metavar="PX",
-        help="npr_lines: width of every line in pixels (default: the scene's, else 1)",
-    )
-    r.add_argument(
-        "--line-aa",
-        type=cli_type("render", "--line-aa"),
-        metavar="N",
-        help="npr_lines: N x N rays per pixel, anti-aliased lines (default: the scene's, else 3)",
-    )
-    r.add_argument(
-        "--line-color",
-        type=_rgb,
-        metavar="R,G,B",
-        help="npr_lines: line colour (linear RGB) on the beauty and in <stem>_lines.png (black)",
-    )
+    r.add_argument("--lines", action="store_true", help="add the npr_lines drawing")
+    r.add_argument("--contours", action="store_true", help="add the npr_contours drawing")
+    r.add_argument("--raytree", action="store_true", help="add the npr_raytree drawing")
     r.add_argument(
         "--paper",
         type=_rgb,
@@ -154,22 +247,23 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="add Cryptomatte 1.2 layers (CryptoObject, CryptoMaterial) to the EXR",
     )
+    r.add_argument(
+        "--svg-image",
+        choices=("embed", "link", "none"),
+        default="embed",
+        help="the beauty in <stem>_contours.svg: embedded once (default), linked, or none",
+    )
+    r.add_argument(
+        "--no-beauty-in-svg", action="store_true", help="do not embed the beauty in the SVG"
+    )
+    _layer_arguments(r, ("lines", "contours", "raytree"))
 
     c = sub.add_parser(
-        "contours", help="apparent contours in red over the beauty render: PNG, SVG and EXR"
+        "contours",
+        allow_abbrev=False,
+        help="shorthand of render --contours: <stem>_contours.exr/.png/.svg",
     )
     _scene_batch_arguments(c, "contours")
-    # The same names as mi_npr.contours.METHODS / ID_MODES (not imported: parsing needs no LLVM).
-    c.add_argument(
-        "--method",
-        choices=("border", "code_direction"),
-        help="contour follower (default: the XML's npr_contours setting, else border)",
-    )
-    c.add_argument(
-        "--id-mode",
-        choices=("shape", "primitive", "component"),
-        help="what one object is (default: the XML's npr_contours setting, else shape)",
-    )
     c.add_argument(
         "--svg-image",
         choices=("embed", "link", "none"),
@@ -178,18 +272,15 @@ def build_parser() -> argparse.ArgumentParser:
         "<stem>_beauty.png beside it, or none",
     )
     c.add_argument("--no-beauty-in-svg", action="store_true", help="the same as --svg-image none")
+    _layer_arguments(c, ("contours",))
 
     t = sub.add_parser(
         "raytree",
-        help="ray-tree signatures and classified edges (real/reflection/refraction/shadow)",
+        allow_abbrev=False,
+        help="shorthand of render --raytree: ray-tree edges, <stem>_raytree.exr/.png",
     )
     _scene_batch_arguments(t, "raytree")
-    t.add_argument(
-        "--max-depth",
-        type=cli_type("raytree", "--max-depth"),
-        metavar="N",
-        help="levels of the ray trees (default: the scene's npr_raytree max_depth, else 3)",
-    )
+    _layer_arguments(t, ("raytree",))
 
     b = sub.add_parser(
         "best-view",
@@ -216,6 +307,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=128,
         help="ID buffer size, long side (128)",
     )
+    _size_arguments(b, "best-view")
     b.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
     _define_argument(b)
     b.add_argument(
@@ -286,7 +378,8 @@ def _fail(message: str, code: int = 1) -> int:
 
 def _scene_batch(args: argparse.Namespace) -> tuple[Path, dict]:
     """The checked output directory and the render options of a batch-of-scenes command
-    (``spp``, ``defines``: passed as a mapping, so ``-D seed=3`` fills the XML's ``$seed``)."""
+    (``spp``, ``resolution``, ``defines``: passed as a mapping, so ``-D seed=3`` fills the
+    XML's ``$seed``)."""
     import mi_npr
 
     from .batch import check_unique_stems
@@ -297,71 +390,76 @@ def _scene_batch(args: argparse.Namespace) -> tuple[Path, dict]:
     spp = defines.pop("spp", None)  # -D spp=N and --spp N mean the same; --spp wins
     if args.spp is not None:
         spp = args.spp
-    return outdir, {"spp": spp, "defines": defines}
+    return outdir, {"spp": spp, "defines": defines, "resolution": _resolution(args)}
+
+
+def _resolution(args: argparse.Namespace) -> tuple[int | None, int | None] | None:
+    """``--width``/``--height`` as a film size (``None``: the scene's)."""
+    if args.width is None and args.height is None:
+        return None
+    return (args.width, args.height)
+
+
+def _run_drawings(args: argparse.Namespace, drawings: tuple[str, ...], only: str | None) -> int:
+    """``render`` (``only=None``) and its shorthands ``contours``/``raytree``."""
+    import mi_npr
+
+    from .batch import run_jobs
+    from .pipeline import render_layers
+
+    outdir, options = _scene_batch(args)
+    params = _layer_values(args)
+    progress = not args.no_progress
+
+    def job(scene: str) -> list[Path]:
+        result = render_layers(
+            scene,
+            drawings,
+            params,
+            scene_drawings=only is None,
+            seed=args.seed,
+            progress=progress,
+            cryptomatte=getattr(args, "cryptomatte", False),
+            **options,
+        )
+        no_image = getattr(args, "no_beauty_in_svg", False)
+        return mi_npr.io.write_layered_outputs(
+            result,
+            outdir,
+            Path(scene).stem,
+            only=only,
+            line_color=params.get("line_color"),
+            paper=getattr(args, "paper", None),
+            svg_image="none" if no_image else getattr(args, "svg_image", "embed"),
+        )
+
+    results = run_jobs(args.scenes, job, progress, args.traceback, on_result=_result_line)
+    return _exit_code(results)
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    import mi_npr
-
-    from .batch import run_jobs
-    from .drawing import render_lines
-
-    outdir, options = _scene_batch(args)
-    lines = {"line_width": args.line_width, "line_aa": args.line_aa, "line_color": args.line_color}
-
-    def job(scene: str) -> list[Path]:
-        gb = render_lines(scene, seed=args.seed, cryptomatte=args.cryptomatte, **lines, **options)
-        return mi_npr.io.write_outputs(
-            gb, outdir, Path(scene).stem, line_color=args.line_color, paper=args.paper
-        )
-
-    results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
-    return _report(results)
+    asked = tuple(d for d in ("lines", "contours", "raytree") if getattr(args, d))
+    return _run_drawings(args, asked, None)
 
 
 def _cmd_contours(args: argparse.Namespace) -> int:
-    import mi_npr
-
-    from .batch import run_jobs
-
-    outdir, options = _scene_batch(args)
-
-    def job(scene: str) -> list[Path]:
-        gb, contours, paths, strokes = mi_npr.contours.render_vector_contours(
-            scene, seed=args.seed, method=args.method, id_mode=args.id_mode, **options
-        )
-        image = "none" if args.no_beauty_in_svg else args.svg_image
-        return mi_npr.io.write_contour_outputs(
-            gb, contours, outdir, Path(scene).stem, svg_image=image, paths=paths, strokes=strokes
-        )
-
-    results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
-    return _report(results)
+    return _run_drawings(args, ("contours",), "contours")
 
 
 def _cmd_raytree(args: argparse.Namespace) -> int:
-    import mi_npr
-
-    from .batch import run_jobs
-
-    outdir, options = _scene_batch(args)
-
-    def job(scene: str) -> list[Path]:
-        gb = mi_npr.raytree.render(scene, max_depth=args.max_depth, seed=args.seed, **options)
-        stem = Path(scene).stem
-        return mi_npr.io.write_raytree_outputs(gb, outdir, stem, mi_npr.contours.stroke_layers(gb))
-
-    results = run_jobs(args.scenes, job, not args.no_progress, args.traceback)
-    return _report(results)
+    return _run_drawings(args, ("raytree",), "raytree")
 
 
-def _report(results: list) -> int:
-    for res in results:
-        if res.ok:
-            names = ", ".join(str(o) for o in res.outputs)
-            print(_t(f"{res.item}: {names}") + f" ({res.seconds:.2f} s)")
-        else:
-            _fail(res.error)
+def _result_line(res: object) -> tuple[str, bool]:
+    """The line printed as soon as one scene is done, and whether it is an error."""
+    if res.ok:  # type: ignore[attr-defined]
+        names = ", ".join(str(o) for o in res.outputs)  # type: ignore[attr-defined]
+        line = f"{res.item}: {names} ({res.seconds:.2f} s)"  # type: ignore[attr-defined]
+        return _t(line), False
+    return _t(f"{PROG}: error: {res.error}"), True  # type: ignore[attr-defined]
+
+
+def _exit_code(results: list) -> int:
     failed = sum(not r.ok for r in results)
     if failed and len(results) > 1:
         _fail(f"{failed} of {len(results)} inputs failed")
@@ -381,6 +479,8 @@ def _cmd_best_view(args: argparse.Namespace) -> int:
         args.res,
         ignore=args.ignore,
         defines=dict(args.defines),
+        resolution=_resolution(args),
+        spp=args.spp,
     )
     if args.json:
         info = {"scene": args.scene, **best.to_dict()}
@@ -461,15 +561,23 @@ def _on_sigterm(signum: int, frame: object) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    # The drawing flags come from the plugins, which exist only once mi-npr starts: when it
+    # cannot, say why (in _run) rather than call those flags unknown.
+    args, unknown = parser.parse_known_args(argv)
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        return _run(args)
+        return _run(parser, args, unknown, argv)
     finally:
         signal.signal(signal.SIGTERM, previous)
 
 
-def _run(args: argparse.Namespace) -> int:
+def _run(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    unknown: list[str],
+    argv: Sequence[str] | None,
+) -> int:
     try:
         import mi_npr
 
@@ -477,6 +585,8 @@ def _run(args: argparse.Namespace) -> int:
             mi_npr._llvm.configure()
         if mi_npr._api.STARTUP_ERROR is not None:  # the variant asked for cannot be activated
             raise mi_npr._api.STARTUP_ERROR
+        if unknown:
+            parser.parse_args(argv)  # a usage error naming the unknown arguments (exit 2)
         if args.variant:
             mi_npr.set_variant(args.variant)
         if getattr(args, "max_memory", None):

@@ -1,5 +1,6 @@
-"""The line drawing alone (issue 19): ``<stem>_lines.png``, ink on paper, and the render that
-takes the command line's line options (``--line-width``, ``--line-aa``, ``--line-color``).
+"""The line drawing alone (issue 19): ``<stem>_lines.png``, ink on paper; the ``lines`` layer
+added to a G-buffer (:func:`add_lines`, the ``npr_lines`` plugin's pass and ``mi-npr render
+--lines``); the object-selection parameters every per-object drawing takes (issue 14).
 
 The ``lines`` layer is coverage in [0, 1]; the drawing is ``paper * (1 - lines) + line_color *
 lines`` in linear RGB (black ink on white by default), written sRGB-encoded like every PNG.
@@ -7,7 +8,6 @@ lines`` in linear RGB (black ink on white by default), written sRGB-encoded like
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -17,8 +17,7 @@ from . import layers as L
 from .compose import over
 from .errors import ParameterError
 from .gbuffer import GBuffer
-from .scene import merge_defines
-from .session import SceneSession
+from .params import Param
 
 #: Black ink on white paper (linear RGB).
 INK, PAPER = (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
@@ -35,41 +34,56 @@ def drawing(
     return over(sheet, gb.numpy(L.LINES), line_color)
 
 
-def render_lines(
-    scene: str | os.PathLike[str],
-    *,
-    line_width: float | None = None,
-    line_aa: int | None = None,
-    line_color: Sequence[float] | None = None,
-    cryptomatte: bool = False,
-    spp: int | str | None = None,
-    seed: int = 0,
-    defines: Mapping[str, Any] | None = None,
-) -> GBuffer:
-    """:func:`mi_npr.render` with the scene's ``npr_lines`` parameters ``line_width``,
-    ``line_aa`` and ``line_color`` overridden where given (not ``None``); giving one for a
-    scene whose integrator is not ``npr_lines`` is an error naming the scene. ``cryptomatte``
-    adds the Cryptomatte layers (:mod:`mi_npr.cryptomatte`) whatever the integrator."""
-    from .cryptomatte import add_cryptomatte, has_cryptomatte
-    from .render import render_gbuffer
+def selection_params(modes: Sequence[str] | None = None) -> tuple[Param, ...]:
+    """The ``id_mode``, ``only`` and ``ignore`` parameters of every per-object drawing
+    (``npr_lines``, ``npr_contours``, ``npr_raytree``): what one object is and which objects are
+    drawn (:mod:`mi_npr.contours.idmode`); ``modes``: the id modes allowed (default all)."""
+    from .contours.idmode import ID_MODES
 
-    given = {"line_width": line_width, "line_aa": line_aa, "line_color": line_color}
-    given = {k: v for k, v in given.items() if v is not None}
-    session = SceneSession.open(scene, spp=spp, defines=merge_defines(defines, {}))
-    integrator = session.scene.integrator()
-    if given and getattr(integrator, "PLUGIN", None) != "npr_lines":
-        flags = ", ".join("--" + k.replace("_", "-") for k in given)
-        used = getattr(integrator, "PLUGIN", None) or integrator.class_name()
-        raise ParameterError(
-            f"{session.name}: {flags}: only for the npr_lines integrator "
-            f"(the scene uses {used}; try -D integrator=npr_lines)"
-        )
-    if given:
-        integrator.set_params(**given)
-    if hasattr(integrator, "npr_gbuffer"):
-        gb = integrator.npr_gbuffer(session, spp=session.spp, seed=seed)
-    else:
-        gb = render_gbuffer(session, beauty=integrator, spp=session.spp, seed=seed)
-    if cryptomatte and not has_cryptomatte(gb):
-        gb = add_cryptomatte(gb, session.scene, session.sensor, session.spp, seed)
-    return gb
+    allowed = tuple(modes or ID_MODES)
+
+    def one_of(v: str) -> str | None:
+        return None if v in allowed else f"expected one of {', '.join(allowed)}"
+
+    return (
+        Param("id_mode", str, "shape", "what one object is: " + ", ".join(allowed), one_of),
+        Param("only", str, "", "draw only objects matching these globs (comma-separated)"),
+        Param("ignore", str, "", "objects matching these globs count as background"),
+    )
+
+
+def object_ids(scene: Any, table: Any, params: Mapping[str, Any]) -> Any:
+    """The :class:`~mi_npr.contours.idmode.IdMap` of a drawing's ``id_mode``, ``only`` and
+    ``ignore`` parameters (strings of comma-separated globs, or lists)."""
+    from .contours.idmode import id_map
+
+    return id_map(
+        scene,
+        params.get("id_mode") or "shape",
+        table,
+        only=params.get("only") or (),
+        ignore=params.get("ignore") or (),
+    )
+
+
+def add_lines(scene: Any, sensor: Any, gb: GBuffer, params: Mapping[str, Any]) -> GBuffer:
+    """``gb`` with the ``lines`` layer of the ``npr_lines`` parameters ``params`` (all of them,
+    checked), composited in ``line_color`` onto ``R G B`` (the raw beauty kept)."""
+    import json
+
+    from .antialias import antialiased_lines
+    from .compose import with_overlay
+    from .foliage.leaves import leaf_id_layer
+    from .kernels import LINES_PARAMS
+    from .scene import object_table
+
+    chain = {p.name: params[p.name] for p in LINES_PARAMS}
+    if chain["leaf_edges"] and L.LEAF_ID not in gb:
+        gb = gb.with_layers({L.LEAF_ID: leaf_id_layer(scene, gb)})
+    ids = object_ids(scene, object_table(scene), params)
+    n = params["line_aa"]
+    ink = antialiased_lines(scene, sensor, gb, n, ids=ids, **chain)
+    sel = {k: params[k] for k in ("id_mode", "only", "ignore") if params.get(k)}
+    meta = json.dumps({**chain, "line_aa": n, **sel})
+    gb = gb.with_layers({L.LINES: ink}).with_metadata(**{"mi_npr/lines": meta})
+    return with_overlay(gb, ink, params["line_color"])

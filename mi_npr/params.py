@@ -205,23 +205,32 @@ def problem(p: Param, value: Any) -> str | None:
 
 #: The command line's numeric flags, by command (``mi-npr COMMAND --flag``): parsed with
 #: :func:`cli_type` so a bad value is a usage error naming the flag.
+#: --width/--height of every command that renders (whatever the scene's <default> names).
+_SIZE = (
+    Param("--width", int, None, "film width", integer_range(1, MAX_RES)),
+    Param("--height", int, None, "film height", integer_range(1, MAX_RES)),
+)
+
 CLI_PARAMS: dict[str, tuple[Param, ...]] = {
     "render": (
+        *_SIZE,
         Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
         Param("--seed", int, 0, "sampler seed", seed_rule),
-        Param("--line-width", float, None, "line width (px)", real_range(0.0, 15.0, open_lo=True)),
-        Param("--line-aa", int, None, "rays per pixel side", integer_range(1, 8)),
     ),
     "contours": (
+        *_SIZE,
         Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
         Param("--seed", int, 0, "sampler seed", seed_rule),
     ),
     "raytree": (
+        *_SIZE,
         Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
         Param("--seed", int, 0, "sampler seed", seed_rule),
         Param("--max-depth", int, None, "ray-tree levels", integer_range(1, MAX_RAYTREE_DEPTH)),
     ),
     "best-view": (
+        *_SIZE,
+        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
         Param("--depth", int, 4, "subdivisions", integer_range(0, MAX_VIEW_DEPTH)),
         Param("--res", int, 128, "ID buffer long side", integer_range(1, MAX_RES)),
     ),

@@ -5,7 +5,8 @@ blends integer ids across edges. So the G-buffer bypasses the film: the pixel-ce
 :mod:`mi_npr.raycast` (``((x + 0.5) / W, (y + 0.5) / H)`` of the crop window, centre of the lens
 and of the shutter interval) are intersected once and each channel is evaluated as its own planar
 array. The beauty image is the nested integrator's own ``render`` at the film's filter and spp,
-so the two never mix.
+so the two never mix; a long beauty (a 1-spp probe estimates it) can run in passes under a
+progress bar (:func:`beauty_layers`, ``progress=True`` on a terminal).
 
 Per pixel (see :mod:`mi_npr.layers`): ``Z`` camera-space depth along the view axis (+inf on a
 miss), ``P`` world position, ``N`` shading normal, ``object_id``, ``prim_id``, and ``R G B``.
@@ -91,6 +92,49 @@ def gbuffer_layers(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, shade
     return {k: (TU if isinstance(v, mi.UInt32) else TF)(v, shape=(h, w)) for k, v in out.items()}
 
 
+#: A beauty render estimated longer than this (seconds) is rendered in passes with a progress bar.
+PROGRESS_AFTER = 2.0
+#: Seconds per pass of a beauty rendered in passes (the bar's update rate).
+PASS_SECONDS = 0.5
+
+
+def _render_in_passes(
+    scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Integrator, spp: int, seed: int
+) -> Any:
+    """The beauty of ``spp`` samples, with a progress bar on stderr when it is long.
+
+    A 1-spp probe estimates the time of the whole render; under :data:`PROGRESS_AFTER` seconds
+    the beauty is one ``render`` call (the same image as without progress). Longer renders run
+    as passes of ~:data:`PASS_SECONDS`, each ``render(seed=k, spp=part)`` with its own seed,
+    averaged weighted by their spp: the same estimator as one render of ``spp`` samples with
+    other random numbers."""
+    import time
+
+    def one(seed_k: int, n: int) -> Any:
+        img = integrator.render(scene, sensor, seed=seed_k, spp=n, develop=True, evaluate=True)
+        dr.eval(img)
+        dr.sync_thread()
+        return img
+
+    t0 = time.perf_counter()
+    one(seed, 1)
+    estimate = (time.perf_counter() - t0) * spp
+    if estimate < PROGRESS_AFTER:
+        return one(seed, spp)
+    from tqdm import tqdm
+
+    passes = min(spp, max(2, int(estimate / PASS_SECONDS)))
+    parts = [spp // passes + (k < spp % passes) for k in range(passes)]
+    acc = None
+    with tqdm(total=spp, desc="beauty", unit="spp", leave=False) as bar:
+        for k, n in enumerate(parts):
+            img = one((seed * 1000003 + k) % 2**31, n)
+            acc = img * (n / spp) if acc is None else acc + img * (n / spp)
+            dr.eval(acc)
+            bar.update(n)
+    return acc
+
+
 def beauty_layers(
     scene: mi.Scene,
     sensor: mi.Sensor,
@@ -98,10 +142,19 @@ def beauty_layers(
     spp: int,
     seed: int,
     passes: int = 1,
+    progress: bool = False,
 ) -> dict[str, Any]:
     """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B as
-    (H, W) tensors (in ``passes`` renders when memory asks for it, :mod:`mi_npr.memory`)."""
-    img = render_passes(integrator, scene, sensor, spp, seed, passes)
+    (H, W) tensors. In ``passes`` renders when memory asks for it (:mod:`mi_npr.memory`); with
+    ``progress`` (and stderr a terminal), a long render shows a bar with its ETA
+    (:func:`_render_in_passes`)."""
+    import sys
+
+    total = spp or sensor.sampler().sample_count()
+    if progress and passes <= 1 and total >= 4 and sys.stderr.isatty():
+        img = _render_in_passes(scene, sensor, integrator, total, seed)
+    else:
+        img = render_passes(integrator, scene, sensor, spp, seed, passes)
     h, w = (int(v) for v in img.shape[:2])
     c = int(img.shape[2]) if img.ndim == 3 else 1
     flat = img.array
@@ -121,8 +174,10 @@ def render_gbuffer(
     spp: int | None = None,
     seed: int = 0,
     source: str | None = None,
+    progress: bool = False,
 ) -> GBuffer:
-    """The G-buffer of a loaded scene; ``beauty`` is the integrator for ``R G B`` (or none).
+    """The G-buffer of a loaded scene; ``beauty`` is the integrator for ``R G B`` (or none);
+    ``progress``: a progress bar for a long beauty (:func:`beauty_layers`).
 
     ``spp`` overrides the sensor's sample count for the beauty image (``None`` keeps it). The
     G-buffer channels are always one exact sample per pixel.
@@ -139,7 +194,9 @@ def render_gbuffer(
         table = session.objects
         layers = gbuffer_layers(session.scene, sensor, table, shade=beauty is None)
         if beauty is not None:
-            layers.update(beauty_layers(session.scene, sensor, beauty, spp or 0, seed, passes))
+            layers.update(
+                beauty_layers(session.scene, sensor, beauty, spp or 0, seed, passes, progress)
+            )
     ordered = {k: layers[k] for k in L.GBUFFER}
     spp_used = spp if spp is not None else sensor.sampler().sample_count()
     meta = {

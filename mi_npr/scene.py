@@ -3,8 +3,9 @@
 Object ids (the ``object_id`` layer) must not depend on the order Mitsuba keeps its shapes in
 (``scene.shapes()`` changes with the XML's order and with scene optimisation), and Mitsuba's own
 ``shape_index`` AOV is wrong on JIT variants (mitsuba3 #955, #1059). So: every top-level shape
-gets a *name* (its XML ``id``; shapes without one are named ``<type>_<hash>`` from their type,
-bounding box and primitive count), names are sorted, and ids 1..N follow that order. A lookup
+gets a *name* (its XML ``id``; a mesh without one is named after its file's stem, other
+shapes ``<type>_<hash>`` from their type, bounding box and primitive count; equal names get
+``_1``, ``_2``... in a stable order), names are sorted, and ids 1..N follow that order. A lookup
 table from Mitsuba's shape registry index to our id turns ``si.shape`` into an id with one gather.
 
 Scenes are loaded with ``optimize=False``: Mitsuba otherwise merges meshes that share a BSDF into
@@ -16,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -151,8 +153,30 @@ def shape_bbox(shape: mi.Shape) -> np.ndarray:
     return np.stack([lo, hi])
 
 
+_MESH_NAME = re.compile(r'^\s*name = "([^"\n]+)"', re.MULTILINE)
+
+
+def mesh_file_stem(shape: mi.Shape) -> str | None:
+    """The file stem of a mesh loaded from a file (``ply``, ``obj``, ``serialized``: the
+    ``name`` Mitsuba keeps, the file's name, in its description), else ``None``."""
+    if not shape.is_mesh():
+        return None
+    head = str(shape)[:400]
+    m = _MESH_NAME.search(head)
+    if not m:
+        return None
+    stem = os.path.splitext(os.path.basename(m.group(1)))[0]
+    return stem or None
+
+
 def _auto_name(shape: mi.Shape) -> str:
-    """A name for a shape without an XML id: type + hash of bbox and primitive count."""
+    """A name for a shape without an XML id: the stem of its mesh file
+    (``meshes/Brick_01_02_001.ply`` -> ``Brick_01_02_001``), else its type + a hash of its
+    bounding box and primitive count. Equal names are numbered by :func:`object_table`."""
+    return mesh_file_stem(shape) or _hash_name(shape)
+
+
+def _hash_name(shape: mi.Shape) -> str:
     bb = shape.bbox()
     nums = [*np.asarray(bb.min, dtype=np.float64).ravel(), *np.asarray(bb.max).ravel()]
     key = ",".join(f"{v:.5g}" for v in nums) + f"|{shape.primitive_count()}"
@@ -234,9 +258,12 @@ def object_table(scene: mi.Scene) -> ObjectTable:
     for s in shapes:
         sid = s.id()
         names.append(sid if sid else _auto_name(s))
-    # Identical unnamed shapes get the same auto name: disambiguate in a stable way.
+    # Equal names (two shapes of one mesh file, identical unnamed shapes): numbered in the order
+    # of their geometry hash, which does not depend on the XML's order.
     seen: dict[str, int] = {}
-    order = sorted(range(len(shapes)), key=lambda i: names[i])
+    dup = {n for n, k in Counter(names).items() if k > 1}
+    tie = {i: _hash_name(shapes[i]) if names[i] in dup else "" for i in range(len(shapes))}
+    order = sorted(range(len(shapes)), key=lambda i: (names[i], tie[i]))
     for i in order:
         n = names[i]
         if n in seen:

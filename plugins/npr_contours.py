@@ -30,6 +30,19 @@ real objects from their reflections and refractions.
      - rgb
      - ``1, 0, 0``
      - Linear RGB of the contour pixels (finite, >= 0, like ``npr_lines``'s ``line_color``).
+   * - ``only``, ``ignore``
+     - string
+     - ``""``
+     - Comma-separated shell globs on object names: contours of the objects ``only`` matches
+       (all if empty) and not ``ignore``; the others count as background.
+   * - ``line_width``
+     - float
+     - 1
+     - Width of the drawn contours in pixels (the ``contour`` layer stays 1 px).
+
+``id_mode`` also takes ``material`` (one object per BSDF) and ``silhouette`` (all objects one:
+contours only against the background). A contour between two touching objects is drawn once,
+1 px, on the nearer object's side (the larger id's when they touch at equal depth).
 
 Channels (``aov_names()``, after ``R G B``): ``contour.V`` (object id on contour pixels, 0
 elsewhere, in the ids of ``id_mode``; their names are in the GBuffer's metadata
@@ -54,8 +67,10 @@ import mitsuba as mi
 
 from mi_npr import layers as L
 from mi_npr.contours import ID_MODES, METHODS, overlay
+from mi_npr.drawing import selection_params
 from mi_npr.gbuffer import GBuffer
 from mi_npr.integrator import NprIntegrator
+from mi_npr.kernels.ink import line_width
 from mi_npr.params import Param, rgb_color
 
 
@@ -69,8 +84,9 @@ class NprContoursIntegrator(NprIntegrator):
     PLUGIN = "npr_contours"
     PARAMS = (
         Param("method", str, "border", "border or code_direction", _one_of(METHODS)),
-        Param("id_mode", str, "shape", "shape, primitive or component", _one_of(ID_MODES)),
+        *selection_params(ID_MODES),
         Param("color", tuple, (1.0, 0.0, 0.0), "linear RGB of the contours", rgb_color),
+        Param("line_width", float, 1.0, "width of the drawn contours, in pixels", line_width),
     )
 
     def aov_names(self) -> list[str]:
@@ -83,6 +99,9 @@ class NprContoursIntegrator(NprIntegrator):
             method=self.params["method"],
             id_mode=self.params["id_mode"],
             color=self.params["color"],
+            only=self.params["only"],
+            ignore=self.params["ignore"],
+            line_width=self.params["line_width"],
         )
         return out
 

@@ -85,6 +85,17 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
      - Camera depths mapped to 0 and 1. Unset: the frame's nearest finite depth and the larger
        of its farthest and 4x its nearest. The background is a full step beyond every object
        pixel whatever ``far`` is (see :mod:`mi_npr.kernels.chain`).
+   * - ``id_mode``
+     - string
+     - ``shape``
+     - What one object is for the ID edges: ``shape``, ``component``, ``primitive``,
+       ``material`` (one object per BSDF) or ``silhouette`` (all objects one: ID edges only
+       against the background); see :mod:`mi_npr.contours.idmode`.
+   * - ``only``, ``ignore``
+     - string
+     - ``""``
+     - Comma-separated shell globs on object names: ID edges and creases only on the objects
+       ``only`` matches (all if empty) and not ``ignore``; the others count as background.
    * - (nested integrator)
      - integrator
      - none
@@ -118,15 +129,12 @@ Every scene of ``scenes_xml/`` takes it: ``mi-npr render scenes_xml/scene1.xml -
 
 from __future__ import annotations
 
-import json
-
 import mitsuba as mi
 
 from mi_npr import layers as L
-from mi_npr.antialias import aa_factor, antialiased_lines, check_aa_width
-from mi_npr.compose import with_overlay
+from mi_npr.antialias import aa_factor, check_aa_width
+from mi_npr.drawing import add_lines, selection_params
 from mi_npr.errors import ParameterError
-from mi_npr.foliage.leaves import leaf_id_layer
 from mi_npr.gbuffer import GBuffer
 from mi_npr.integrator import NprIntegrator
 from mi_npr.kernels import LINES_PARAMS
@@ -143,7 +151,6 @@ LINE_AA_DEFAULT = 3
 _LINE_AA = Param(
     "line_aa", int, LINE_AA_DEFAULT, "rays per pixel side for anti-aliased lines", aa_factor
 )
-_CHAIN = tuple(p.name for p in LINES_PARAMS)
 
 
 class NprLinesIntegrator(NprIntegrator):
@@ -151,7 +158,13 @@ class NprLinesIntegrator(NprIntegrator):
 
     PLUGIN = "npr_lines"
     # The chain's parameters with line_color before near and far, as the manual lists them.
-    PARAMS = (*LINES_PARAMS[:-2], _LINE_COLOR, _LINE_AA, *LINES_PARAMS[-2:])
+    PARAMS = (
+        *LINES_PARAMS[:-2],
+        _LINE_COLOR,
+        _LINE_AA,
+        *LINES_PARAMS[-2:],
+        *selection_params(),
+    )
 
     def __init__(self, props: mi.Properties) -> None:
         super().__init__(props)
@@ -164,14 +177,7 @@ class NprLinesIntegrator(NprIntegrator):
         return [L.LINES, *L.GBUFFER_AOVS, *extra, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
-        params = {k: self.params[k] for k in _CHAIN}
-        if params["leaf_edges"] and L.LEAF_ID not in gb:
-            gb = gb.with_layers({L.LEAF_ID: leaf_id_layer(scene, gb)})
-        n = self.params["line_aa"]
-        ink = antialiased_lines(scene, sensor, gb, n, **params)
-        meta = json.dumps({**params, "line_aa": n})
-        gb = gb.with_layers({L.LINES: ink}).with_metadata(**{"mi_npr/lines": meta})
-        return with_overlay(gb, ink, self.params["line_color"])
+        return add_lines(scene, sensor, gb, self.params)
 
     def set_params(self, **values: object) -> None:
         """Override parameters after loading (the command line's ``--line-width`` and friends),

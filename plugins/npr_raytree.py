@@ -20,6 +20,25 @@ over the beauty: real red, reflection blue, refraction green, shadow gray.
      - 3
      - levels of the ray trees (1: primary hits only; 3: primary hits, their reflections and
        refractions, and those rays' own reflections and refractions)
+   * - ``shadow_lights``
+     - string
+     - ``hard``
+     - the lights whose shadows make ``edges.shadow``: ``hard`` (point, spot, directional),
+       ``all``, or comma-separated light names / shell globs (see :mod:`mi_npr.raytree.lights`
+       for the approximation of area and environment lights)
+   * - ``id_mode``
+     - string
+     - ``shape``
+     - what one object is for ``edges.real``: ``shape``, ``material`` or ``silhouette``
+   * - ``only``, ``ignore``
+     - string
+     - ``""``
+     - comma-separated shell globs on object names: edges only where a corner ray sees an
+       object ``only`` matches (all if empty) and not ``ignore``
+   * - ``line_width``
+     - float
+     - 1
+     - width of the drawn edges in pixels (the ``edges.*`` layers stay 1 px)
    * - (nested integrator)
      - integrator
      - none
@@ -27,8 +46,9 @@ over the beauty: real red, reflection blue, refraction green, shadow gray.
        a headlight diffuse shading
 
 Lights (see :mod:`mi_npr.raytree.lights`): point and spot lights are tested at their position,
-area lights at their shape's centre, directional lights along their direction, and an
-environment (``envmap``, ``constant``) counts as one light shining from its zenith (+y).
+directional lights along their direction; with ``shadow_lights`` asking for them, area lights
+at their shape's centre and an environment (``envmap``, ``constant``) as one light shining from
+its zenith (+y).
 Lights are numbered 1..K by name (their XML ``id``), objects by the stable object ids.
 
 Channels after ``R G B`` (``aov_names()``):
@@ -61,11 +81,16 @@ from __future__ import annotations
 import mitsuba as mi
 
 from mi_npr import layers as L
+from mi_npr.contours.idmode import OBJECT_MODES
+from mi_npr.drawing import object_ids, selection_params
 from mi_npr.gbuffer import GBuffer
 from mi_npr.integrator import NprIntegrator
+from mi_npr.kernels.ink import line_width
 from mi_npr.params import Param, integer_range
 from mi_npr.raytree import LAYERS, add_raytree
+from mi_npr.raytree.lights import HARD, check_shadow_lights
 from mi_npr.raytree.tracer import MAX_DEPTH
+from mi_npr.scene import object_table
 
 _depth = integer_range(1, MAX_DEPTH)
 
@@ -74,13 +99,33 @@ class NprRayTreeIntegrator(NprIntegrator):
     """Ray-tree signatures and classified edges (see the module docstring for the manual)."""
 
     PLUGIN = "npr_raytree"
-    PARAMS = (Param("max_depth", int, 3, "levels of the ray trees", _depth),)
+    PARAMS = (
+        Param("max_depth", int, 3, "levels of the ray trees", _depth),
+        Param(
+            "shadow_lights",
+            str,
+            HARD,
+            "lights of shadow edges: hard, all or names",
+            check_shadow_lights,
+        ),
+        *selection_params(OBJECT_MODES),
+        Param("line_width", float, 1.0, "width of the drawn edges, in pixels", line_width),
+    )
 
     def aov_names(self) -> list[str]:
         return [*LAYERS, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
-        return add_raytree(scene, sensor, gb, self.params["max_depth"])
+        p = self.params
+        return add_raytree(
+            scene,
+            sensor,
+            gb,
+            p["max_depth"],
+            ids=object_ids(scene, object_table(scene), p),
+            shadow_lights=p["shadow_lights"],
+            line_width=p["line_width"],
+        )
 
 
 mi.register_integrator("npr_raytree", lambda props: NprRayTreeIntegrator(props))

@@ -34,8 +34,11 @@ def test01_mi_render_channels(write_scene):
     ref = np.zeros(gb.shape, np.uint32)
     for c in trace(gb):
         ref[c.ys, c.xs] = c.object_id
-    np.testing.assert_array_equal(gb.numpy(L.CONTOUR), ref)
-    on = ref != 0
+    # Issue 14: the layer keeps the traced pixels on the side that owns each edge (1 px between
+    # touching objects; tests/test66 checks the exact rule against a brute-force reference).
+    on = gb.numpy(L.CONTOUR) != 0
+    assert on.sum() > 0.6 * (ref != 0).sum()
+    np.testing.assert_array_equal(gb.numpy(L.CONTOUR)[on], ref[on])
     assert np.all(gb.beauty[on] == [1, 0, 0])
     np.testing.assert_array_equal(gb.stack(L.RAW_RGB)[~on], gb.beauty[~on])
     assert gb.metadata["mi_npr/integrator"] == "npr_contours"
@@ -81,4 +84,5 @@ def test05_scene_default_switches_integrator():
     gb = mi_npr.render(path, width=48, height=36, spp=1, integrator="npr_contours")
     scene = mi_npr.load_scene(path, width=48, height=36, spp=1)
     ids, _ = mode_ids(gb, scene, "shape")
-    np.testing.assert_array_equal(gb.numpy(L.CONTOUR) != 0, mi_npr.contours.contour_mask(ids))
+    mask, on = mi_npr.contours.contour_mask(ids), gb.numpy(L.CONTOUR) != 0
+    assert np.all(mask[on]) and on.sum() > 0  # one side of each edge, not the frame (issue 14)

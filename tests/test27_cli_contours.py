@@ -36,8 +36,12 @@ def balls(tmp_path) -> Path:
 def test01_writes_png_svg_exr(balls, tmp_path, capsys):
     out = tmp_path / "out"
     assert cli.main(["contours", str(balls), "-o", str(out), "--spp", "3", "--no-progress"]) == 0
-    assert sorted(os.listdir(out)) == ["balls.exr", "balls_contours.png", "balls_contours.svg"]
-    gb = read_exr(out / "balls.exr")
+    assert sorted(os.listdir(out)) == [
+        "balls_contours.exr",
+        "balls_contours.png",
+        "balls_contours.svg",
+    ]
+    gb = read_exr(out / "balls_contours.exr")
     assert {L.CONTOUR, *L.GBUFFER, *L.RAW_RGB} <= set(gb.names)
     assert gb.numpy(L.CONTOUR).dtype == np.uint32 and gb.metadata["mi_npr/spp"] == "3"
     on = gb.numpy(L.CONTOUR) != 0
@@ -56,7 +60,7 @@ def test02_options(balls, tmp_path):
     args += ["--method", "code_direction", "--id-mode", "primitive", "-D", "unused=1"]
     assert cli.main(args) == 1  # Mitsuba rejects unused defines: one line, not a traceback
     assert cli.main(args[:-2]) == 0
-    gb = read_exr(out / "balls.exr")
+    gb = read_exr(out / "balls_contours.exr")
     assert gb.metadata["mi_npr/contour_method"] == "code_direction"
     assert gb.metadata["mi_npr/contour_id_mode"] == "primitive"
     assert ET.parse(out / "balls_contours.svg").getroot().find(f".//{SVG}image") is None
@@ -68,9 +72,9 @@ def test03_xml_settings_are_the_defaults(tmp_path):
     p.write_text(scene_xml(BALLS, integrator=xml))
     out = tmp_path / "out"
     assert cli.main(["contours", str(p), "-o", str(out)]) == 0
-    assert read_exr(out / "c.exr").metadata["mi_npr/contour_id_mode"] == "component"
+    assert read_exr(out / "c_contours.exr").metadata["mi_npr/contour_id_mode"] == "component"
     assert cli.main(["contours", str(p), "-o", str(out), "--id-mode", "shape"]) == 0
-    assert read_exr(out / "c.exr").metadata["mi_npr/contour_id_mode"] == "shape"
+    assert read_exr(out / "c_contours.exr").metadata["mi_npr/contour_id_mode"] == "shape"
 
 
 def test04_errors(balls, tmp_path):
@@ -81,17 +85,21 @@ def test04_errors(balls, tmp_path):
     assert str(broken) in r.stderr and "1 of 2 inputs failed" in r.stderr
     assert (tmp_path / "o" / "balls_contours.png").exists()
     r = run_cli("contours", str(balls), "-o", str(tmp_path / "o"), "--method", "moore")
-    assert r.returncode == 2 and "invalid choice" in r.stderr
+    assert r.returncode == 2 and "'method' = 'moore': expected one of border" in r.stderr
 
 
-def test05_cli_choices_are_the_librarys():
+def test05_cli_flags_are_the_plugins_parameters():
+    """Issue 14: the flags are generated from npr_contours' PARAMS (same names)."""
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command").choices["contours"]
-    choices = {a.dest: tuple(a.choices) for a in sub._actions if a.choices}
-    assert choices == {
-        "method": mi_npr.contours.METHODS,
-        "id_mode": mi_npr.contours.ID_MODES,
-        "svg_image": mi_npr.io.svg.SVG_IMAGE,
+    flags = {o for a in sub._actions for o in a.option_strings}
+    from mi_npr.pipeline import layer_params
+
+    for p in layer_params("contours"):
+        assert "--" + p.name.replace("_", "-") in flags
+    assert set(mi_npr.contours.ID_MODES) >= {"material", "silhouette"}
+    assert {a.dest: tuple(a.choices) for a in sub._actions if a.choices} == {
+        "svg_image": mi_npr.io.svg.SVG_IMAGE
     }
 
 
@@ -99,5 +107,5 @@ def test06_paper_scene(tmp_path):
     out = tmp_path / "out"
     args = ["contours", str(SCENES / "scene1.xml"), "-o", str(out), "-D", "width=64"]
     assert cli.main([*args, "-D", "height=48", "--spp", "1"]) == 0
-    gb = read_exr(out / "scene1.exr")
+    gb = read_exr(out / "scene1_contours.exr")
     assert gb.shape == (48, 64) and (gb.numpy(L.CONTOUR) != 0).sum() > 100

@@ -54,7 +54,7 @@ def test03_scene3_gap_and_hidden_objects():
 
 
 def test04_scene4_intersections_are_contours():
-    """Where objects interpenetrate, the crease is a contour of both."""
+    """Where objects interpenetrate, the crease is a contour, drawn on one side (issue 14)."""
     gb = mi_npr.render(SCENES / "scene4.xml", **SMALL)
     out, contours = overlay(gb)
     ids, layer = gb.object_id, out.numpy("contour.V")
@@ -62,5 +62,6 @@ def test04_scene4_intersections_are_contours():
     touching = (ids[:, :-1] == a) & (ids[:, 1:] == b) | (ids[:, :-1] == b) & (ids[:, 1:] == a)
     assert touching.any()
     ys, xs = np.nonzero(touching)
-    assert np.all(layer[ys, xs] == ids[ys, xs]) and np.all(layer[ys, xs + 1] == ids[ys, xs + 1])
+    left, right = layer[ys, xs] == ids[ys, xs], layer[ys, xs + 1] == ids[ys, xs + 1]
+    assert np.all(left | right) and not np.all(left & right)
     assert {c.name for c in contours} >= {"slab", "sphere_cut", "cylinder_through_box", "box_b"}

@@ -219,14 +219,14 @@ def test03_simple_pixels_and_arguments(write_scene):
 # ----------------------------------------------------------------------------- the hash
 def _hash_layers(path):
     scene = mi_npr.load_scene(path)
-    lay = raytree_layers(scene, 0, 3)
+    lay = raytree_layers(scene, 0, 3, shadow_lights="all")
     return (lay[L.RAYTREE_HI].astype(np.uint64) << np.uint64(32)) | lay[L.RAYTREE_LO]
 
 
 def test04_hash_equal_iff_strings_equal_on_every_pixel(write_scene):
     path = write_scene(MIXED, width=40, height=30, fov=60, origin="0, 0.3, 0", target="0, 0, 1")
     h = _hash_layers(path).ravel()
-    s = signatures(path, max_depth=3).ravel()
+    s = signatures(path, max_depth=3, shadow_lights="all").ravel()
     groups_s = {}
     groups_h = {}
     for i, (hv, sv) in enumerate(zip(h.tolist(), s.tolist(), strict=True)):

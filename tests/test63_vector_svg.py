@@ -162,7 +162,7 @@ def test05_cli_svg_image_modes_layers_and_the_png_overlay(sphere, tmp_path, mode
     # the SVG's paths against the PNG overlay drawn beside it
     png = np.asarray(Image.open(out / "sphere_contours.png"))
     red = np.all(png == [255, 0, 0], axis=-1)
-    gb = mi_npr.io.read_exr(out / "sphere.exr")
+    gb = mi_npr.io.read_exr(out / "sphere_contours.exr")
     on = gb.numpy(L.CONTOUR) != 0
     assert np.array_equal(red & on, on)  # every contour pixel is drawn red
     d = group.find(f"{SVG}path").get("d")
@@ -245,7 +245,7 @@ def test09_raytree_svg_has_one_layer_per_edge_class(tmp_path):
         "edges_refraction",
         "edges_shadow",
     ]
-    gb = mi_npr.io.read_exr(tmp_path / "scene1.exr")
+    gb = mi_npr.io.read_exr(tmp_path / "scene1_raytree.exr")
     for name in L.EDGES:
         mask = gb.numpy(name) > 0.5
         polys = []

@@ -68,7 +68,9 @@ def test03_errors_are_one_line_and_write_nothing(tmp_path, capsys):
     bad = tmp_path / "bad"
     assert cli.main(["render", str(plain), "-o", str(bad), "--no-progress", "--line-aa", "2"]) == 1
     err = capsys.readouterr().err
-    assert "--line-aa: only for the npr_lines integrator" in err and str(plain) in err
+    assert (
+        "--line-aa: no drawing of this render takes it (add --lines)" in err and str(plain) in err
+    )
     assert len(err.strip().splitlines()) == 1 and not list(bad.glob("*"))
     with pytest.raises(SystemExit) as e:
         cli.main(["render", str(plain), "-o", str(bad), "--paper", "red"])

@@ -62,16 +62,24 @@ class RayIds:
     """Object ids at film positions, by one camera ray each (``pixel_rays``: the same rays as
     the G-buffer's pixel centres), in the ids of ``id_mode`` (:mod:`mi_npr.contours.idmode`)."""
 
-    def __init__(self, scene: Any, sensor: Any = 0, id_mode: str = "shape") -> None:
+    def __init__(
+        self, scene: Any, sensor: Any = 0, id_mode: str = "shape", id_map: Any = None
+    ) -> None:
         from ..raycast import require_jit
         from ..scene import object_table, sensor_of
-        from .idmode import check_id_mode, id_map
+        from .idmode import check_id_mode
+        from .idmode import id_map as make_id_map
 
         require_jit("vector contours")
         self.scene = scene
         self.sensor = sensor_of(scene, sensor)
         self.table = object_table(scene)
-        self.map = id_map(scene, check_id_mode(id_mode), self.table) if id_mode != "shape" else None
+        if id_map is not None:  # an IdMap: an id mode and an object selection
+            self.table, self.map = id_map.table, id_map
+        elif id_mode != "shape":
+            self.map = make_id_map(scene, check_id_mode(id_mode), self.table)
+        else:
+            self.map = None
 
     def __call__(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         import mitsuba as mi

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from .. import layers as L
+from ..compose import raw_beauty
 from ..gbuffer import GBuffer
 from ._atomic import atomic_output, check_writable_dir, output_set
 from .exr import describe, read_exr, write_exr
@@ -41,29 +42,101 @@ def write_outputs(
     return out
 
 
-def write_raytree_outputs(
-    gb: GBuffer, outdir: str | os.PathLike[str], stem: str, strokes: Mapping[str, Any]
+def write_layered_outputs(
+    result: Any,
+    outdir: str | os.PathLike[str],
+    stem: str,
+    *,
+    only: str | None = None,
+    line_color: Sequence[float] | None = None,
+    paper: Sequence[float] | None = None,
+    svg_image: str = "embed",
 ) -> list[Path]:
-    """What ``mi-npr raytree`` writes: ``<stem>.exr``, ``<stem>_raytree.png`` (the edge classes
-    over the beauty) and ``<stem>_raytree.svg`` (each class an Inkscape layer of paths from
-    ``strokes``, over the raw beauty embedded once)."""
-    from ..compose import raw_beauty
+    """The files of a :class:`~mi_npr.pipeline.LayeredRender`, in ``outdir``:
 
+    - ``<stem>.exr`` (every layer) and ``<stem>.png`` (the beauty, with the lines if drawn);
+    - one picture per drawing: ``<stem>_lines.png`` (the lines alone, ``line_color`` ink on
+      ``paper``) with ``<stem>_lines.svg`` (its strokes), ``<stem>_contours.png`` with
+      ``<stem>_contours.svg`` (vector contours on the true outline), ``<stem>_raytree.png``
+      with ``<stem>_raytree.svg`` (one Inkscape layer per edge class).
+
+    ``svg_image``: the raw beauty under the SVG drawings: ``embed`` (once), ``link`` (written
+    as ``<stem>_beauty.png``) or ``none``. ``only="contours"`` (or ``"raytree"``) writes what
+    the ``contours`` (``raytree``) command writes: that drawing's files, its EXR named
+    ``<stem>_contours.exr`` (``_raytree``) with ``R G B`` holding the drawing, so the shorthands
+    never overwrite ``render``'s files. Everything is computed before the first file is
+    written; the files are replaced all together or not at all (:func:`output_set`).
+    """
+    from ..drawing import INK, PAPER, drawing
+    from ..errors import ParameterError
+    from .svg import SVG_IMAGE
+
+    if svg_image not in SVG_IMAGE:
+        raise ParameterError(f"svg_image = {svg_image!r}: must be one of {', '.join(SVG_IMAGE)}")
     d = check_writable_dir(outdir, create=True)
+    gb = result.gbuffer
+    files: list[tuple[str, Any]] = []
+    if only is not None:
+        files.append((f"{stem}_{only}.exr", result.drawing(only)))
+        files.append((f"{stem}_{only}.png", result.pictures[only]))
+    else:
+        files += [(f"{stem}.exr", gb), (f"{stem}.png", gb.beauty)]
+        if L.LINES in gb:
+            sheet = drawing(gb, INK if line_color is None else line_color, paper or PAPER)
+            files.append((f"{stem}_lines.png", sheet))
+        for name in ("contours", "raytree"):
+            if name in result.pictures:
+                files.append((f"{stem}_{name}.png", result.pictures[name]))
+    image: dict[str, Any] = {}
+    svgs: list[tuple[str, str]] = []
+    drawn = [n for n in ("lines", "contours", "raytree") if only in (None, n)]
+    strokes = result.strokes or {}
+    wanted = {
+        "lines": ([], {k: v for k, v in strokes.items() if k == L.LINES.split(".")[0]}),
+        "contours": (result.paths or result.contours, {}),
+        "raytree": ([], {k: v for k, v in strokes.items() if k.startswith("edges")}),
+    }
+    present = {
+        "lines": L.LINES in gb,
+        "contours": "contours" in result.pictures,
+        "raytree": "raytree" in result.pictures,
+    }
+    if svg_image == "embed":
+        image["beauty"] = raw_beauty(gb)
+    elif svg_image == "link" and any(present[n] for n in drawn):
+        files.append((f"{stem}_beauty.png", raw_beauty(gb)))
+        image["beauty_href"] = f"{stem}_beauty.png"
+    meta = gb.metadata
+    color = tuple(float(v) for v in meta.get("mi_npr/contour_color", "1,0,0").split(","))
+    for name in drawn:
+        if not present[name]:
+            continue
+        paths, layers = wanted[name]
+        svgs.append(
+            (
+                f"{stem}_{name}.svg",
+                svg_document(
+                    list(paths),
+                    gb.width,
+                    gb.height,
+                    color=color,
+                    stroke_width=float(meta.get("mi_npr/contour_line_width", "1")),
+                    title=meta.get("mi_npr/scene", stem),
+                    strokes=layers,
+                    **image,
+                ),
+            )
+        )
+    out = []
     with output_set():  # every file together, or none of them
-        return [
-            write_exr(d / f"{stem}.exr", gb),
-            write_png(d / f"{stem}_raytree.png", gb.beauty),
-            write_svg(
-                d / f"{stem}_raytree.svg",
-                [],
-                gb.width,
-                gb.height,
-                beauty=raw_beauty(gb),
-                strokes=strokes,
-                title=gb.metadata.get("mi_npr/scene", stem),
-            ),
-        ]
+        for name, data in files:
+            if name.endswith(".exr"):
+                out.append(write_exr(d / name, data))
+            else:
+                out.append(write_png(d / name, data))
+        for name, text in svgs:
+            out.append(write_text(d / name, text))
+    return out
 
 
 __all__ = [
@@ -77,9 +150,9 @@ __all__ = [
     "to_rgb8",
     "write_contour_outputs",
     "write_exr",
+    "write_layered_outputs",
     "write_outputs",
     "write_png",
-    "write_raytree_outputs",
     "write_svg",
     "write_text",
 ]

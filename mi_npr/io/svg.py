@@ -256,8 +256,8 @@ def write_contour_outputs(
     paths: Iterable | None = None,
     strokes: Mapping[str, tuple[Sequence[np.ndarray], Sequence[float]]] | None = None,
 ) -> list[Path]:
-    """What ``mi-npr contours`` writes: ``<stem>.exr`` (every layer, ``contour.V`` included),
-    ``<stem>_contours.png`` (R G B: the beauty with the contours drawn) and
+    """What ``mi-npr contours`` writes: ``<stem>_contours.exr`` (every layer, ``contour.V``
+    included), ``<stem>_contours.png`` (R G B: the beauty with the contours drawn) and
     ``<stem>_contours.svg`` (``paths`` if given, else the pixel ``contours``, plus ``strokes``
     layers). ``svg_image``: ``embed`` the raw beauty in the SVG, ``link`` it (written as
     ``<stem>_beauty.png`` beside it) or ``none`` (also ``beauty_in_svg=False``). The SVG's colour
@@ -277,7 +277,7 @@ def write_contour_outputs(
         color = (1.0, 0.0, 0.0)
     with output_set():  # every file together, or none of them
         written = [
-            write_exr(d / f"{stem}.exr", gb),
+            write_exr(d / f"{stem}_contours.exr", gb),
             write_png(d / f"{stem}_contours.png", gb.beauty),
         ]
         image: dict[str, Any] = {}

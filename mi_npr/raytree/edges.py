@@ -84,6 +84,17 @@ def classify_edges(corners: Trees, width: int, height: int) -> dict[str, Any]:
     }
 
 
+def any_corner(flags: Any, width: int, height: int) -> Any:
+    """``Bool`` per pixel of a ``width`` x ``height`` image: one of its four corners (in the
+    (width + 1) x (height + 1) corner grid ``flags``) is set."""
+    i = dr.arange(mi.UInt32, width * height)
+    c00 = (i // width) * (width + 1) + i % width
+    out = dr.zeros(mi.Bool, width * height)
+    for c in (c00, c00 + 1, c00 + width + 1, c00 + width + 2):
+        out |= dr.gather(mi.Bool, flags, c)
+    return out
+
+
 def as_image(values: Any, width: int, height: int) -> np.ndarray:
     """A flat Dr.Jit array of ``width * height`` values as an (H, W) numpy array (a view)."""
     return np.asarray(values.numpy()).reshape(height, width)

@@ -28,6 +28,16 @@ a hit point when
                                 convention; world +y for ``constant``), to infinity
   ============================  ==============================================================
 
+**Which lights cast shadow edges** (``shadow_lights``; ``npr_raytree``'s parameter, the
+command line's ``--shadow-lights``). One shadow ray per light gives a hard shadow boundary,
+which is right for lights that cast hard shadows: point, spot and directional lights
+(``"hard"``, the default of the ray-tree pass). An area light is approximated by its centre (a
+sharp ellipse where the rendered shadow is a soft penumbra) and an environment by one light at
+its zenith (a gray line along every top face of a scene lit by the sky), so they join only when
+asked: ``"all"`` keeps every light, or a comma-separated list of light names or shell globs
+(``"sun,lamp*"``) picks them. Lights left out are not in the trees at all (not numbered, not in
+the signatures), so they add no shadow edges and no signature differences.
+
 Emission profiles are not evaluated beyond the spot cone (a one-sided area light is visible
 from behind, a textured envmap counts whatever its value in that direction): visibility is
 geometric, as in Nehab and Gattass's trees (paper, section 2.2.3).
@@ -39,12 +49,14 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
+from fnmatch import fnmatchcase
 from typing import Any
 
 import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..errors import ParameterError
 from ..scene import ObjectTable, shape_bbox
 
 #: How each emitter's shadow ray is aimed (see the module docstring).
@@ -95,9 +107,42 @@ class LightTable:
         return max(1, (len(self.names) + 31) // 32)
 
 
-def light_table(scene: mi.Scene, objects: ObjectTable) -> LightTable:
-    """Number the emitters of ``scene`` (see the module docstring for the rules)."""
-    ems = list(scene.emitters())
+#: The lights that cast shadow edges unless asked otherwise (module docstring).
+HARD = "hard"
+SHADOW_LIGHTS = ("hard", "all")
+
+
+def check_shadow_lights(value: str) -> str | None:
+    """The rule for ``shadow_lights``: ``hard``, ``all`` or comma-separated names/globs."""
+    if not isinstance(value, str) or not value.strip():
+        return "expected hard, all or comma-separated light names"
+    return None
+
+
+def light_table(scene: mi.Scene, objects: ObjectTable, shadow_lights: str = "all") -> LightTable:
+    """Number the emitters of ``scene`` that ``shadow_lights`` keeps (``"all"``, ``"hard"``
+    or names/globs; see the module docstring for the rules). A name that matches no light is
+    a :class:`~mi_npr.errors.ParameterError`."""
+    problem = check_shadow_lights(shadow_lights)
+    if problem:
+        raise ParameterError(f"shadow_lights = {shadow_lights!r}: {problem}")
+    table = _light_table(list(scene.emitters()), objects)
+    choice = shadow_lights.strip()
+    if choice == "all":
+        return table
+    if choice == HARD:
+        keep = [k for k in table.names if table.kinds[k] in (POSITION, DIRECTION)]
+    else:
+        globs = [g.strip() for g in choice.split(",") if g.strip()]
+        for g in globs:
+            if not any(fnmatchcase(n, g) for n in table.names.values()):
+                known = ", ".join(table.names.values()) or "none"
+                raise ParameterError(f"shadow_lights: no light named {g!r} (lights: {known})")
+        keep = [k for k, n in table.names.items() if any(fnmatchcase(n, g) for g in globs)]
+    return _light_table([table.emitters[k] for k in keep], objects)
+
+
+def _light_table(ems: list[mi.Emitter], objects: ObjectTable) -> LightTable:
     shape_name = {s.ptr: objects.names[k] for k, s in objects.shapes.items()}
     shape_id = {s.ptr: k for k, s in objects.shapes.items()}
     names = []

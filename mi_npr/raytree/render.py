@@ -21,11 +21,10 @@ from .. import layers as L
 from ..compose import with_overlays
 from ..gbuffer import GBuffer
 from ..raycast import film_grid, film_size, pixel_rays, require_jit
-from ..render import render_gbuffer
 from ..scene import merge_defines, object_table, sensor_of
 from ..session import SceneSession
-from .edges import as_image, classify_edges
-from .lights import light_table
+from .edges import any_corner, as_image, classify_edges
+from .lights import HARD, light_table
 from .tracer import Trees, check_max_depth, trace_trees
 
 #: Overlay colours (linear RGB) of the edge classes, as the issue asks.
@@ -47,6 +46,14 @@ def scene_max_depth(scene: mi.Scene) -> int:
     return 3
 
 
+def scene_shadow_lights(scene: mi.Scene) -> str:
+    """The ``shadow_lights`` of the scene's ``npr_raytree`` integrator, else ``"hard"``."""
+    integ = scene.integrator()
+    if getattr(integ, "PLUGIN", None) == "npr_raytree":
+        return str(integ.params["shadow_lights"])
+    return HARD
+
+
 def _slice(trees: Trees, start: int, count: int) -> Trees:
     idx = dr.arange(mi.UInt32, count) + start
 
@@ -61,48 +68,87 @@ def _slice(trees: Trees, start: int, count: int) -> Trees:
     )
 
 
+def _selected_trees(corners: Trees, ids: Any) -> tuple[Trees, Any]:
+    """The corner trees with their primary objects in the ids of ``ids`` (an object-level
+    :class:`~mi_npr.contours.idmode.IdMap`: unselected objects are background), and whether
+    each corner sees a selected object."""
+    lut = mi.UInt32(ids.object_lut())
+    root = dr.gather(mi.UInt32, lut, corners.root_obj)
+    return Trees(corners.hash, root, corners.root_lights, corners.levels), root != 0
+
+
 def raytree_layers(
-    scene: mi.Scene, sensor: int | mi.Sensor = 0, max_depth: int = 3
+    scene: mi.Scene,
+    sensor: int | mi.Sensor = 0,
+    max_depth: int = 3,
+    ids: Any = None,
+    shadow_lights: str = HARD,
 ) -> dict[str, np.ndarray]:
     """``raytree.hi``, ``raytree.lo`` (uint32) and the four ``edges.*`` layers (float32 0/1)
-    of ``sensor``'s image, each an (H, W) numpy array."""
+    of ``sensor``'s image, each an (H, W) numpy array.
+
+    ``ids`` (an :class:`~mi_npr.contours.idmode.IdMap` of a mode in
+    :data:`~mi_npr.contours.idmode.OBJECT_MODES`) chooses what one object is for
+    ``edges.real`` and which objects are drawn: an edge pixel of any class is kept only when
+    one of its four corner rays sees a selected object first. ``shadow_lights`` picks the
+    lights of the trees (:mod:`mi_npr.raytree.lights`; hard-shadow lights by default)."""
     max_depth = check_max_depth(max_depth)
     require_jit("ray trees")
     s = sensor_of(scene, sensor)
     w, h = film_size(s)
     objects = object_table(scene)
-    lights = light_table(scene, objects)
+    lights = light_table(scene, objects, shadow_lights)
     n_px, n_c = w * h, (w + 1) * (h + 1)
     (cx, cy), (kx, ky) = film_grid(w, h), film_grid(w, h, corners=True)
     x, y = dr.concat([cx, kx]), dr.concat([cy, ky])
     trees = trace_trees(scene, pixel_rays(s, x, y), objects, lights, max_depth)
     dr.eval(trees.hash, trees.root_obj, trees.root_lights, trees.levels)
     hi, lo = _slice(trees, 0, n_px).hi_lo()
-    edges = classify_edges(_slice(trees, n_px, n_c), w, h)
+    corners = _slice(trees, n_px, n_c)
+    if ids is not None and not ids.identity:
+        corners, seen = _selected_trees(corners, ids)
+        keep = mi.Float(any_corner(seen, w, h))
+        edges = {k: v * keep for k, v in classify_edges(corners, w, h).items()}
+    else:
+        edges = classify_edges(corners, w, h)
     dr.eval(hi, lo, *edges.values())
     out = {L.RAYTREE_HI: as_image(hi, w, h), L.RAYTREE_LO: as_image(lo, w, h)}
     out.update({name: as_image(v, w, h) for name, v in edges.items()})
     return out
 
 
-def overlay(gb: GBuffer) -> GBuffer:
-    """``gb`` with each edge class drawn over the beauty in its colour (:data:`COLORS`); the
-    untouched beauty stays in ``beauty.R/G/B``."""
-    return with_overlays(gb, [(gb[name], color) for name, color in COLORS.items()])
+def overlay(gb: GBuffer, line_width: float = 1.0) -> GBuffer:
+    """``gb`` with each edge class drawn over the beauty in its colour (:data:`COLORS`),
+    ``line_width`` pixels wide; the untouched beauty stays in ``beauty.R/G/B``."""
+    if line_width == 1.0:
+        return with_overlays(gb, [(gb[name], color) for name, color in COLORS.items()])
+    from ..kernels import widen_lines
+
+    wide = [(np.asarray(widen_lines(gb[n], float(line_width))), c) for n, c in COLORS.items()]
+    return with_overlays(gb, wide)
 
 
 def add_raytree(
-    scene: mi.Scene | SceneSession, sensor: int | mi.Sensor, gb: GBuffer, max_depth: int = 3
+    scene: mi.Scene | SceneSession,
+    sensor: int | mi.Sensor,
+    gb: GBuffer,
+    max_depth: int = 3,
+    *,
+    ids: Any = None,
+    shadow_lights: str = HARD,
+    line_width: float = 1.0,
 ) -> GBuffer:
-    """``gb`` plus the ray-tree layers, with the edge classes composited onto ``R G B``."""
+    """``gb`` plus the ray-tree layers (:func:`raytree_layers`), with the edge classes
+    composited onto ``R G B``."""
     session = scene if isinstance(scene, SceneSession) else None
     if session is None:
         src = gb.metadata.get("mi_npr/scene")
         session = SceneSession(scene, sensor_of(scene, sensor), src)
     with session.step("ray-tree pass"):
-        new = raytree_layers(session.scene, session.sensor, max_depth)
-    out = overlay(gb.with_layers(new))
-    return out.with_metadata(**{"mi_npr/raytree_max_depth": max_depth})
+        new = raytree_layers(session.scene, session.sensor, max_depth, ids, shadow_lights)
+    out = overlay(gb.with_layers(new), line_width)
+    meta = {"mi_npr/raytree_max_depth": max_depth, "mi_npr/raytree_shadow_lights": shadow_lights}
+    return out.with_metadata(**meta)
 
 
 def render(
@@ -115,17 +161,25 @@ def render(
     defines: Mapping[str, Any] | None = None,
     **more: Any,
 ) -> GBuffer:
-    """Render ``scene`` with the ray-tree layers and overlay, whatever its integrator.
+    """Render ``scene`` with the ray-tree layers and overlay, whatever its integrator:
+    ``mi-npr raytree`` from Python (the ``raytree`` drawing of
+    :func:`mi_npr.pipeline.render_layers`, ``R G B`` its picture).
 
     The beauty comes from the scene's integrator (the nested one of an mi-npr integrator).
-    ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3. ``defines`` and
-    the other keyword arguments fill the XML's ``<default>``s, as in :func:`mi_npr.render`.
+    ``max_depth`` (and ``shadow_lights``, ``id_mode``, ``only``, ``ignore``) default to the
+    scene's ``npr_raytree`` integrator's, else 3 (``hard``, every object). ``defines`` and the
+    other keyword arguments fill the XML's ``<default>``s, as in :func:`mi_npr.render`.
     """
-    session = SceneSession.open(scene, sensor=sensor, spp=spp, defines=merge_defines(defines, more))
-    integ = session.scene.integrator()
-    is_npr = hasattr(integ, "npr_gbuffer")
-    max_depth = check_max_depth(scene_max_depth(session.scene) if max_depth is None else max_depth)
-    beauty = integ.beauty if is_npr else integ
-    gb = render_gbuffer(session, beauty=beauty, spp=session.spp, seed=seed)
-    gb = add_raytree(session, session.sensor, gb, max_depth)
-    return gb.with_metadata(**{"mi_npr/integrator": "npr_raytree"})
+    from ..pipeline import render_layers
+
+    r = render_layers(
+        scene,
+        ["raytree"],
+        {} if max_depth is None else {"max_depth": max_depth},
+        scene_drawings=False,
+        sensor=sensor,
+        spp=spp,
+        seed=seed,
+        defines=merge_defines(defines, more),
+    )
+    return r.drawing("raytree")

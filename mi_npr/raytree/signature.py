@@ -41,7 +41,7 @@ from ..errors import ParameterError
 from ..raycast import film_grid, film_size, pixel_rays
 from ..session import RENDER_LOCK, SceneSession
 from .lights import light_table
-from .render import scene_max_depth
+from .render import scene_max_depth, scene_shadow_lights
 from .tracer import Nodes, trace_trees
 
 Tree = Mapping[int, tuple[int, Sequence[int]]]
@@ -90,12 +90,15 @@ def signatures_of(nodes: Nodes, n: int) -> list[str]:
     return [format_signature(t) for t in trees]
 
 
-def _trace_pixels(session: SceneSession, x: Any, y: Any, max_depth: int | None) -> list[str]:
+def _trace_pixels(
+    session: SceneSession, x: Any, y: Any, max_depth: int | None, shadow_lights: str | None
+) -> list[str]:
     scene = session.scene
     depth = scene_max_depth(scene) if max_depth is None else max_depth
+    chosen = scene_shadow_lights(scene) if shadow_lights is None else shadow_lights
     with RENDER_LOCK:
         objects = session.objects
-        lights = light_table(scene, objects)
+        lights = light_table(scene, objects, chosen)
         rays = pixel_rays(session.sensor, mi.Float(x), mi.Float(y))
         trees = trace_trees(scene, rays, objects, lights, depth, record=True)
     assert trees.nodes is not None
@@ -109,11 +112,14 @@ def signature(
     *,
     max_depth: int | None = None,
     sensor: int = 0,
+    shadow_lights: str | None = None,
 ) -> str:
     """The signature of pixel ``(x, y)``'s tree (ray through the pixel centre, like the
     ``raytree.hi``/``raytree.lo`` layers), for debugging and tests.
 
-    ``max_depth`` defaults to the scene's ``npr_raytree`` integrator's, else 3.
+    ``max_depth`` and ``shadow_lights`` (the lights in the trees,
+    :mod:`mi_npr.raytree.lights`) default to the scene's ``npr_raytree`` integrator's, else 3
+    and ``"hard"``, as in the ray-tree layers.
 
     >>> mi_npr.raytree.signature("scenes_xml/scene1.xml", 350, 260)  # doctest: +SKIP
     '2BL1L2DL1'
@@ -125,7 +131,7 @@ def signature(
     for name, v, hi in (("x", x, w), ("y", y, h)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v < hi:
             raise ParameterError(f"{name} = {v!r}: must be an integer pixel index in 0..{hi - 1}")
-    return _trace_pixels(session, [x + 0.5], [y + 0.5], max_depth)[0]
+    return _trace_pixels(session, [x + 0.5], [y + 0.5], max_depth, shadow_lights)[0]
 
 
 def signatures(
@@ -134,11 +140,12 @@ def signatures(
     max_depth: int | None = None,
     sensor: int = 0,
     corners: bool = False,
+    shadow_lights: str | None = None,
 ) -> np.ndarray:
     """The signatures of every pixel centre, an (H, W) array of ``str``; with ``corners``, of
     every pixel corner, (H + 1, W + 1) (the rays the edge layers compare)."""
     session = SceneSession.open(scene, sensor=sensor)
     w, h = film_size(session.sensor)
     cw, ch = (w + 1, h + 1) if corners else (w, h)
-    out = _trace_pixels(session, *film_grid(w, h, corners), max_depth)
+    out = _trace_pixels(session, *film_grid(w, h, corners), max_depth, shadow_lights)
     return np.array(out, dtype=object).reshape(ch, cw)

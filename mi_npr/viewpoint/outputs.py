@@ -44,6 +44,8 @@ def write_best_view(
     seed: int = 0,
     ignore: Sequence[str] = (),
     defines: Mapping[str, Any] | None = None,
+    resolution: tuple[int | None, int | None] | None = None,
+    spp: int | None = None,
     **more: Any,
 ) -> tuple[BestView, dict[str, Path]]:
     """Search the best view of the XML scene and write the three files (module docstring).
@@ -57,6 +59,10 @@ def write_best_view(
     depth = check_arg("write_best_view", cli_param("best-view", "--depth"), depth)
     res = check_arg("write_best_view", cli_param("best-view", "--res"), res)
     scene = load_scene(scene_path, merge_defines(defines, more))
+    if scene.sensors() and (resolution is not None or spp is not None):
+        from ..session import resize_sensor  # --width/--height/--spp: the written film
+
+        resize_sensor(scene.sensors()[0], resolution, spp)
     try:
         check_shapes(scene)
     except SceneError as e:

@@ -1,0 +1,217 @@
+"""Issue 14: --width/--height/--spp on any scene, `render --lines --contours --raytree` (one EXR
+with every layer, the scene's own integrator as the beauty), no command overwriting another's
+files, flags generated from the plugins' parameters, progress and per-scene lines."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+
+import numpy as np
+import pytest
+
+import mi_npr
+from mi_npr import cli
+from mi_npr import layers as L
+from mi_npr.io import read_exr
+from mi_npr.pipeline import LAYERS, layer_params, render_layers
+
+from .public_style import fifty, ground, room
+
+
+def _files(d) -> list[str]:
+    return sorted(os.listdir(d))
+
+
+def _digest(d) -> dict[str, str]:
+    return {f: hashlib.sha1((d / f).read_bytes()).hexdigest() for f in _files(d)}
+
+
+def test01_resized_sensor_rays_equal_a_loaded_one(tmp_path):
+    """resize_sensor gives the rays of a sensor loaded at that size (pixel corners, centres)."""
+    from mi_npr.raycast import film_grid, pixel_rays
+    from mi_npr.session import resize_sensor
+
+    mi = mi_npr.mi
+
+    def sensor(w, h):
+        return mi.load_dict(
+            {
+                "type": "perspective",
+                "fov": 50,
+                "to_world": mi.ScalarTransform4f().look_at([1, 2, 3], [0, 0, 0], [0, 1, 0]),
+                "film": {"type": "hdrfilm", "width": w, "height": h},
+            }
+        )
+
+    for w, h in ((1, 1), (7, 5), (33, 64)):
+        got = resize_sensor(sensor(40, 30), (w, h), 3)
+        ref = sensor(w, h)
+        assert tuple(got.film().crop_size()) == (w, h) and got.sampler().sample_count() == 3
+        x, y = film_grid(w, h, corners=True)
+        a, b = pixel_rays(got, x, y), pixel_rays(ref, x, y)
+        np.testing.assert_allclose(np.asarray(a.d), np.asarray(b.d), atol=1e-6)
+        np.testing.assert_allclose(np.asarray(a.o), np.asarray(b.o), atol=1e-6)
+
+
+def test02_size_flags_on_scenes_with_different_default_names(tmp_path):
+    """res (room), resx/resy (ground), width (fifty): one --width/--height/--spp sizes all."""
+    scenes = [room(tmp_path), ground(tmp_path), fifty(tmp_path)[0]]
+    out = tmp_path / "out"
+    args = ["render", *map(str, scenes), "-o", str(out), "--no-progress"]
+    assert cli.main([*args, "--width", "24", "--height", "18", "--spp", "3"]) == 0
+    for s in scenes:
+        gb = read_exr(out / f"{s.stem}.exr")
+        assert gb.shape == (18, 24) and gb.camera.resolution == (24, 18), s.stem
+        assert gb.metadata["mi_npr/spp"] == "3"
+    # --width alone keeps the film's aspect (ground: 48 x 32 -> 30 x 20)
+    assert cli.main(["render", str(scenes[1]), "-o", str(out), "--width", "30"]) == 0
+    assert read_exr(out / "ground.exr").shape == (20, 30)
+    # -D keeps its meaning: the XML's own default names
+    assert cli.main(["render", str(scenes[1]), "-o", str(out), "-D", "resx=20"]) == 0
+    assert read_exr(out / "ground.exr").shape == (32, 20)
+    with pytest.raises(SystemExit) as e:
+        cli.main(["render", str(scenes[1]), "-o", str(out), "--width", "0"])
+    assert e.value.code == 2
+
+
+def test03_one_exr_with_every_layer_and_the_scenes_own_beauty(tmp_path):
+    path = room(tmp_path)
+    out = tmp_path / "out"
+    cmd = ["render", str(path), "-o", str(out), "--lines", "--contours", "--raytree"]
+    assert cli.main([*cmd, "--no-progress", "--seed", "2"]) == 0
+    assert _files(out) == [
+        "room.exr",
+        "room.png",
+        "room_contours.png",
+        "room_contours.svg",
+        "room_lines.png",
+        "room_lines.svg",
+        "room_raytree.png",
+        "room_raytree.svg",
+    ]
+    gb = read_exr(out / "room.exr")
+    for name in (*L.GBUFFER, L.LINES, L.CONTOUR, L.RAYTREE_HI, L.RAYTREE_LO, *L.EDGES, *L.RAW_RGB):
+        assert name in gb, name
+    assert gb.metadata["mi_npr/integrator"] == "npr_lines+npr_contours+npr_raytree"
+    # the beauty is the scene's own path integrator (max_depth 3 kept), untouched by drawings:
+    # the same image as mi-npr render without drawings
+    plain = tmp_path / "plain"
+    assert cli.main(["render", str(path), "-o", str(plain), "--no-progress", "--seed", "2"]) == 0
+    ref = read_exr(plain / "room.exr")
+    np.testing.assert_array_equal(gb.stack(L.RAW_RGB), ref.beauty)
+    mi = mi_npr.mi
+    scene = mi_npr.load_scene(path)
+    direct = np.asarray(scene.integrator().render(scene, scene.sensors()[0], seed=2, spp=2))
+    np.testing.assert_array_equal(ref.beauty, direct[..., :3])
+    assert scene.integrator().class_name() == "PathIntegrator"
+    # R G B: the beauty with the lines (composited where the lines layer has ink)
+    ink = gb.numpy(L.LINES) > 0
+    assert ink.any() and np.all(gb.beauty[~ink] == gb.stack(L.RAW_RGB)[~ink])
+    assert mi is not None
+
+
+def test04_no_command_overwrites_anothers_files(tmp_path):
+    path = ground(tmp_path)
+    out = tmp_path / "out"
+    run = ["-o", str(out), "--no-progress"]
+    assert cli.main(["render", str(path), *run]) == 0
+    first = _digest(out)
+    assert cli.main(["contours", str(path), *run]) == 0
+    assert cli.main(["raytree", str(path), *run]) == 0
+    after = _digest(out)
+    assert {k: after[k] for k in first} == first  # render's files untouched
+    assert sorted(set(after) - set(first)) == [
+        "ground_contours.exr",
+        "ground_contours.png",
+        "ground_contours.svg",
+        "ground_raytree.exr",
+        "ground_raytree.png",
+        "ground_raytree.svg",
+    ]
+    # the shorthand and render --contours draw the same picture under the same name
+    shorthand = _digest(out)["ground_contours.png"]
+    assert cli.main(["render", str(path), "--contours", *run]) == 0
+    assert _digest(out)["ground_contours.png"] == shorthand
+    assert read_exr(out / "ground_contours.exr").numpy(L.CONTOUR).any()
+
+
+def test05_flags_are_the_plugins_parameters(tmp_path, capsys):
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices
+    for command, layers in (
+        ("render", LAYERS),
+        ("contours", ["contours"]),
+        ("raytree", ["raytree"]),
+    ):
+        flags = {o for a in sub[command]._actions for o in a.option_strings}
+        for layer in layers:
+            for p in layer_params(layer):
+                assert "--" + p.name.replace("_", "-") in flags, (command, p.name)
+    for flag in ("--width", "--height", "--spp"):
+        assert flag in {o for a in sub["best-view"]._actions for o in a.option_strings}
+    # a drawing parameter no drawing of this render takes: one clear line
+    path = ground(tmp_path)
+    assert cli.main(["render", str(path), "-o", str(tmp_path / "o"), "--c", "30"]) == 1
+    assert "--c: no drawing of this render takes it (add --lines)" in capsys.readouterr().err
+    # values are checked like the XML's: a usage error naming the parameter
+    with pytest.raises(SystemExit):
+        cli.main(["render", str(path), "-o", str(tmp_path / "o"), "--lines", "--t0", "2"])
+    assert "'t0' = 2.0" in capsys.readouterr().err
+
+
+def test06_line_width_thickens_every_drawing(tmp_path):
+    path = room(tmp_path)
+    thin = render_layers(path, ["contours", "raytree"], resolution=(40, 40))
+    wide = render_layers(path, ["contours", "raytree"], {"line_width": 3.0}, resolution=(40, 40))
+    for name in ("contours", "raytree"):
+        a = np.abs(thin.pictures[name] - thin.gbuffer.stack(L.RAW_RGB)).sum(-1) > 1e-6
+        b = np.abs(wide.pictures[name] - wide.gbuffer.stack(L.RAW_RGB)).sum(-1) > 1e-6
+        assert b.sum() > 2 * a.sum() and np.all(b[a]), name
+    # the layers stay 1 px
+    np.testing.assert_array_equal(thin.gbuffer[L.CONTOUR], wide.gbuffer[L.CONTOUR])
+    out = tmp_path / "svg"
+    mi_npr.io.write_layered_outputs(wide, out, "room")
+    assert 'stroke-width="3"' in (out / "room_contours.svg").read_text()
+
+
+def test07_progress_passes_and_per_scene_lines(tmp_path, monkeypatch, capsys):
+    import importlib
+
+    from mi_npr.batch import run_jobs
+
+    R = importlib.import_module("mi_npr.render")
+
+    path = ground(tmp_path)
+    scene = mi_npr.load_scene(path)
+    sensor, integ = scene.sensors()[0], scene.integrator()
+    one = R.beauty_layers(scene, sensor, integ, 8, 0)
+    monkeypatch.setattr(R, "PROGRESS_AFTER", 0.0)  # every render counts as long
+    monkeypatch.setattr(R, "PASS_SECONDS", 1e-9)
+    # not a terminal (pytest's stderr): no bar, one render, the same image
+    quiet = R.beauty_layers(scene, sensor, integ, 8, 0, progress=True)
+    np.testing.assert_array_equal(np.stack(list(quiet.values())), np.stack(list(one.values())))
+    img = R._render_in_passes(scene, sensor, integ, 8, 0)  # 8 passes of 1 spp, averaged
+    a, ref = np.asarray(img)[..., :3], np.stack(list(one.values()), -1)
+    assert a.shape == ref.shape and abs(a.mean() - ref.mean()) < 0.1 * ref.mean()
+    # per-scene lines: printed as each job ends, before the next starts
+    seen = []
+
+    def job(item):
+        seen.append(capsys.readouterr().out)
+        return []
+
+    run_jobs(["a", "b"], job, progress=False, on_result=lambda r: (f"done {r.item}", False))
+    assert seen[1] == "done a\n"
+
+
+def test08_best_view_takes_the_size_flags(tmp_path):
+    from PIL import Image
+
+    path = ground(tmp_path)
+    out = tmp_path / "view"
+    args = ["best-view", str(path), "--measure", "pb", "--depth", "0", "--res", "24"]
+    assert cli.main([*args, "-o", str(out), "--width", "40", "--height", "30", "--spp", "2"]) == 0
+    assert Image.open(out / "ground_best_view.png").size == (40, 30)
+    xml = (out / "ground_best_view.xml").read_text()
+    assert 'name="width" value="40"' in xml and 'name="sample_count" value="2"' in xml
