@@ -48,7 +48,7 @@ import numpy as np
 from ..errors import ParameterError, SceneError
 from ..scene import camera_of, load_scene, sensor_of, shape_bbox
 from . import idbuffer
-from .measures import MEASURES, Topology, check_measure
+from .measures import MEASURES, SparseAreas, Topology, check_measure
 
 #: Default horizontal field of view (degrees) when the scene's sensor has none.
 DEFAULT_FOV = 45.0
@@ -77,14 +77,16 @@ class Viewing:
     polygons: idbuffer.Polygons = field(repr=False)
     #: columns of the area table kept (column 0, the background, always): ignored objects' not
     keep: np.ndarray | None = field(default=None, repr=False)
+    #: viewpoints below the plane through the target normal to ``up`` are allowed too
+    allow_below: bool = False
 
     def origins(self, directions: np.ndarray) -> np.ndarray:
         d = np.asarray(directions, np.float64).reshape(-1, 3)
         d = d / np.linalg.norm(d, axis=-1, keepdims=True)
         return self.target + self.radius * d
 
-    def areas(self, scene: mi.Scene, origins: np.ndarray) -> np.ndarray:
-        return idbuffer.areas(
+    def areas(self, scene: mi.Scene, origins: np.ndarray) -> SparseAreas:
+        return idbuffer.sparse_areas(
             scene, origins, self.target, self.fov, self.size, self.up, self.polygons
         )
 
@@ -92,12 +94,18 @@ class Viewing:
         a = self.areas(scene, origins)
         topo = self.polygons.topology() if measure == "curvature" else None
         if self.keep is not None:  # ignored objects' pixels become background
-            a = a.astype(np.int64)
-            a[:, 0] += a[:, ~self.keep].sum(axis=1)
-            a = a[:, self.keep]
+            a = a.merge(self.keep)
             if topo is not None:
                 topo = Topology(topo.polygon_vertices[self.keep], topo.vertex_term)
         return np.asarray(MEASURES[measure](a, topo), np.float64).reshape(-1)
+
+    def allowed(self, directions: np.ndarray) -> np.ndarray:
+        """Which unit ``directions`` (from the target) are allowed viewpoints: those on the
+        side of :attr:`up` (its plane included), or all with ``allow_below``."""
+        d = np.asarray(directions, np.float64).reshape(-1, 3)
+        if self.allow_below:
+            return np.ones(len(d), dtype=bool)
+        return d @ self.up >= -1e-12
 
 
 def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray | None:
@@ -156,6 +164,8 @@ def viewing(
     fov: float | None = None,
     sensor: int | mi.Sensor = 0,
     ignore: Sequence[str] = (),
+    *,
+    allow_below: bool = False,
 ) -> Viewing:
     """The viewing setup of ``scene`` with the defaults of the module docstring filled in."""
     if scene.sensors() or isinstance(sensor, mi.Sensor):
@@ -192,7 +202,7 @@ def viewing(
         or not (math.isfinite(radius) and radius > 0)
     ):
         raise ParameterError(f"radius = {radius!r}: must be a positive number")
-    return Viewing(tgt, float(radius), fov, size, up, polys, keep)
+    return Viewing(tgt, float(radius), fov, size, up, polys, keep, bool(allow_below))
 
 
 def qualities(
@@ -308,10 +318,19 @@ def _midpoint(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return m / np.linalg.norm(m)
 
 
+def _edge(u: int, v: int) -> tuple[int, int]:
+    return (u, v) if u < v else (v, u)
+
+
+#: Default width of the search (triangles kept at each level) and its cap on evaluations.
+BEAM = 3
+MAX_EVALUATIONS = 40
+
+
 def best_view(
     scene: SceneLike,
     measure: str = "entropy",
-    depth: int = 4,
+    depth: int = 3,
     res: int = 128,
     radius: float | None = None,
     *,
@@ -319,23 +338,35 @@ def best_view(
     fov: float | None = None,
     sensor: int = 0,
     ignore: Sequence[str] = (),
+    allow_below: bool = False,
+    beam: int = BEAM,
+    max_evaluations: int = MAX_EVALUATIONS,
 ) -> BestView:
     """Search the viewing sphere for the best viewpoint under ``measure`` (module docstring).
 
-    ``depth`` subdivisions of the best spherical triangle follow the first 8-triangle split; each
-    level is one batched evaluation of 3 viewpoints, the first level one of 6.
+    ``depth`` levels of subdivision follow the 8 (4 above the ground) spherical triangles of
+    Fig. 1; at each level the ``beam`` best triangles are split, their new vertices rated in
+    one batched evaluation, never more than ``max_evaluations`` in all. ``allow_below`` lets
+    viewpoints below the scene's ground (the side opposite its up axis) compete.
+    ``beam=1, allow_below=True`` is the paper's search (``6 + 3 depth`` evaluations).
 
     >>> from mi_npr.viewpoint import best_view
     >>> bv = best_view("scenes_xml/scene4.xml", "entropy", depth=3)  # doctest: +SKIP
     >>> bv.origin, bv.quality, bv.evaluations                         # doctest: +SKIP
     """
     check_measure(measure)
-    if isinstance(depth, bool) or not isinstance(depth, (int, np.integer)) or depth < 0:
-        raise ParameterError(f"depth = {depth!r}: must be a non-negative integer")
+    for name, v, lo in (
+        ("depth", depth, 0),
+        ("beam", beam, 1),
+        ("max_evaluations", max_evaluations, 1),
+    ):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+            kind = "non-negative" if lo == 0 else "positive"
+            raise ParameterError(f"{name} = {v!r}: must be a {kind} integer")
     scene = load_scene(scene)
     check_shapes(scene)
-    view = viewing(scene, target, radius, res, fov, sensor, ignore)
-    return search(scene, view, measure, int(depth))
+    view = viewing(scene, target, radius, res, fov, sensor, ignore, allow_below=allow_below)
+    return search(scene, view, measure, int(depth), int(beam), int(max_evaluations))
 
 
 def check_shapes(scene: mi.Scene) -> None:
@@ -344,25 +375,76 @@ def check_shapes(scene: mi.Scene) -> None:
         raise SceneError("the scene has no shapes: there is nothing to look at")
 
 
-def search(scene: mi.Scene, view: Viewing, measure: str, depth: int) -> BestView:
+def _ring(centre: np.ndarray, angle: float, count: int) -> np.ndarray:
+    """``count`` unit vectors evenly spaced on a circle ``angle`` radians around ``centre``."""
+    u = np.cross(centre, [1.0, 0.0, 0.0] if abs(centre[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(centre, u)
+    phi = 2.0 * math.pi * (np.arange(count) + 0.5) / count
+    side = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w
+    return math.cos(angle) * centre + math.sin(angle) * side
+
+
+def search(
+    scene: mi.Scene,
+    view: Viewing,
+    measure: str,
+    depth: int,
+    beam: int = BEAM,
+    max_evaluations: int = MAX_EVALUATIONS,
+) -> BestView:
     """The search of :func:`best_view` for a prepared :class:`Viewing` (module docstring)."""
-    dirs: list[np.ndarray] = list(AXES)
-    q: list[float] = list(view.qualities(scene, view.origins(AXES), measure))
-    sums = [sum(q[i] for i in tri) for tri in OCTANTS]
-    tri = [int(i) for i in OCTANTS[int(np.argmax(sums))]]
-    for _ in range(depth):
-        a, b, c = tri
-        mids = np.array(
-            [_midpoint(dirs[a], dirs[b]), _midpoint(dirs[b], dirs[c]), _midpoint(dirs[c], dirs[a])]
-        )
-        qm = view.qualities(scene, view.origins(mids), measure)
-        ab, bc, ca = len(dirs), len(dirs) + 1, len(dirs) + 2
-        dirs.extend(mids)
-        q.extend(qm)
-        children = [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
-        tri = children[int(np.argmax([sum(q[i] for i in ch) for ch in children]))]
+    octants = [t for t in OCTANTS if np.all(view.allowed(AXES[t]))]
+    used = sorted({int(i) for t in octants for i in t})
+    dirs: list[np.ndarray] = [AXES[i] for i in used]
+    tris = [[used.index(int(i)) for i in t] for t in octants]
+    q: list[float] = list(view.qualities(scene, view.origins(np.asarray(dirs)), measure))
+    paper = beam == 1
+
+    def score(t: list[int]) -> float:
+        """The paper ranks triangles by their vertex sum; the beam by their best vertex (a peak
+        between two poor vertices is not lost), the sum breaking ties."""
+        s = sum(q[i] for i in t)
+        return s if paper else max(q[i] for i in t) + 1e-6 * s
+
+    mids: dict[tuple[int, int], int] = {}  # edge -> index of its midpoint in dirs
+    for level in range(depth):
+        # The first level splits every octant (beam search); then the `beam` best triangles
+        # (stable: first on ties) are split, as far as their new midpoints fit in the budget.
+        order = sorted(range(len(tris)), key=lambda k: -score(tris[k]))
+        kept, new = [], []
+        for k in order[: beam if paper or level > 0 else len(order)]:
+            a, b, c = tris[k]
+            edges = [_edge(u, v) for u, v in ((a, b), (b, c), (c, a))]
+            edges = [e for e in edges if e not in mids and e not in new]
+            if not paper and len(dirs) + len(new) + len(edges) > max_evaluations:
+                break
+            kept.append(tris[k])
+            new.extend(edges)
+        if not kept:
+            break
+        for e in new:
+            mids[e] = len(dirs)
+            dirs.append(_midpoint(dirs[e[0]], dirs[e[1]]))
+        q.extend(view.qualities(scene, view.origins(np.asarray(dirs[-len(new) :])), measure))
+        tris = []
+        for a, b, c in kept:
+            ab, bc, ca = (mids[_edge(u, v)] for u, v in ((a, b), (b, c), (c, a)))
+            tris.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]])
+    left = max_evaluations - len(dirs)
+    if not paper and left >= 3:
+        # Polish: the rest of the budget on a ring around the best viewpoint, half a final
+        # triangle edge away (a measure jumps where a polygon appears: its peaks are narrow).
+        t = tris[0]
+        edge = math.acos(float(np.clip(np.dot(dirs[t[0]], dirs[t[1]]), -1.0, 1.0)))
+        ring = _ring(dirs[int(np.argmax(q))], 0.5 * edge, left)
+        ring = ring[view.allowed(ring)]
+        if len(ring):
+            dirs.extend(ring)
+            q.extend(view.qualities(scene, view.origins(ring), measure))
     qs = np.asarray(q, np.float64)
     best = int(np.argmax(qs))
+    final = max(tris, key=score)  # first on ties
     origins = view.origins(np.asarray(dirs))
     _, _, up = idbuffer.view_frame(origins[best], view.target, view.up)
     return BestView(
@@ -378,7 +460,7 @@ def search(scene: mi.Scene, view: Viewing, measure: str, depth: int) -> BestView
         fov=view.fov,
         size=view.size,
         depth=depth,
-        triangle=np.asarray([dirs[i] for i in tri]),
+        triangle=np.asarray([dirs[i] for i in final]),
         world_up=np.asarray(view.up, np.float64),
     )
 
