@@ -10,6 +10,7 @@ import argparse
 import json
 import os
 import sys
+import warnings
 from collections.abc import Sequence
 from importlib import metadata
 from pathlib import Path
@@ -188,7 +189,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="viewpoint quality: pb (eq. 1), curvature (eq. 2) or entropy (eq. 3)",
     )
     b.add_argument(
-        "--depth", type=_non_negative, default=4, help="subdivisions of the best triangle (4)"
+        "--depth",
+        type=_non_negative,
+        default=3,
+        help="levels of subdivision of the viewing sphere's triangles (3)",
     )
     b.add_argument("--res", type=_positive, default=128, help="ID buffer size, long side (128)")
     b.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
@@ -199,6 +203,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=[],
         metavar="OBJECT",
         help="an object whose pixels count as background, e.g. a floor (repeatable)",
+    )
+    b.add_argument(
+        "--allow-below",
+        action="store_true",
+        help="also rate viewpoints below the scene's ground (the side opposite its camera's up)",
+    )
+    b.add_argument(
+        "--no-sphere", action="store_true", help="do not draw the quality-sphere picture"
     )
     b.add_argument("--json", action="store_true", help="print the result as JSON")
 
@@ -321,17 +333,24 @@ def _report(results: list) -> int:
 def _cmd_best_view(args: argparse.Namespace) -> int:
     from .viewpoint import plots_missing, write_best_view
 
-    if why := plots_missing():
+    if not args.no_sphere and (why := plots_missing()):
         print(f"{PROG}: note: {why}: the quality sphere picture is skipped", file=sys.stderr)
-    best, outputs = write_best_view(
-        args.scene,
-        args.output,
-        args.measure,
-        args.depth,
-        args.res,
-        ignore=args.ignore,
-        defines=dict(args.defines),
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        best, outputs = write_best_view(
+            args.scene,
+            args.output,
+            args.measure,
+            args.depth,
+            args.res,
+            ignore=args.ignore,
+            allow_below=args.allow_below,
+            sphere=not args.no_sphere,
+            defines=dict(args.defines),
+        )
+    for w in caught:
+        if issubclass(w.category, UserWarning):
+            print(f"{PROG}: warning: {w.message}", file=sys.stderr)
     if args.json:
         info = {"scene": args.scene, **best.to_dict()}
         info["outputs"] = {k: str(v) for k, v in outputs.items()}

@@ -5,13 +5,23 @@ The files, in ``outdir``: ``<stem>_best_view.xml`` (the best view as a Mitsuba s
 sensor, read back from the written file, with the scene's own integrator: what a user gets who
 puts the sensor in the scene) and ``<stem>_quality_sphere.png`` (the viewing sphere coloured by
 quality, :func:`~mi_npr.viewpoint.sphere_image`; the left disc faces the scene's own camera;
-skipped where matplotlib, the ``plots`` extra, is missing).
+skipped with ``sphere=False`` (``--no-sphere``) or where matplotlib, the ``plots`` extra, is
+missing). The picture costs no ray casting: it interpolates the qualities the search rated (plus
+``samples`` more viewpoints if asked) into a fixed 2 x 240 pixel image.
 Every file goes through :mod:`mi_npr.io` (temporary name, then rename).
+
+**An empty or black view.** After the render, :func:`view_warning` looks at it: more than
+:data:`EMPTY_FRACTION` of its pixels background (no object, or one-sided faces seen from behind
+count too: the ID buffer's rule), or a mean linear luminance of the beauty under
+:data:`DARK_LUMINANCE`, gives a ``warnings.warn`` (the CLI prints it as one line on stderr):
+the measures rated what they could see, and the scene may need ``--allow-below``, ``--ignore``
+or lights that reach the view.
 """
 
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -24,29 +34,54 @@ from ..render import render
 from ..scene import camera_of, load_scene, merge_defines, sensor_of
 from .camera import plots_missing, sensor_xml, sphere_image
 from .measures import check_measure
-from .search import BestView, check_shapes, sample_sphere, search, viewing
+from .search import BestView, check_shapes, fibonacci_sphere, search, viewing
 
-#: Viewpoints rated for the quality sphere picture (Fibonacci lattice).
-SPHERE_SAMPLES = 256
+#: Extra viewpoints rated for the quality sphere picture (Fibonacci lattice, allowed side
+#: only): none by default, the search's own evaluations are drawn.
+SPHERE_SAMPLES = 0
+#: Bounds of :func:`view_warning`: the fraction of background pixels over which a view is
+#: "mostly empty", the mean linear luminance (Rec. 709) under which it is "black".
+EMPTY_FRACTION = 0.9
+DARK_LUMINANCE = 0.01
+
+
+def view_warning(object_id: np.ndarray, beauty: np.ndarray) -> str | None:
+    """Why a rendered best view is not worth looking at (module docstring), or ``None``.
+    ``object_id`` (H, W) with 0 for the background, ``beauty`` (H, W, 3) linear RGB."""
+    ids = np.asarray(object_id)
+    rgb = np.asarray(beauty, np.float64)[..., :3]
+    empty = float(np.mean(ids == 0)) if ids.size else 1.0
+    lum = rgb @ np.array([0.2126, 0.7152, 0.0722]) if rgb.size else np.zeros(1)
+    mean = float(np.mean(np.nan_to_num(lum)))
+    why = []
+    if empty > EMPTY_FRACTION:
+        why.append(f"{100 * empty:.0f}% of it is background")
+    if mean < DARK_LUMINANCE:
+        why.append(f"its mean luminance is {mean:.3g}")
+    return " and ".join(why) if why else None
 
 
 def write_best_view(
     scene_path: str | os.PathLike[str],
     outdir: str | os.PathLike[str],
     measure: str,
-    depth: int = 4,
+    depth: int = 3,
     res: int = 128,
     *,
     stem: str | None = None,
     samples: int = SPHERE_SAMPLES,
     seed: int = 0,
     ignore: Sequence[str] = (),
+    allow_below: bool = False,
+    sphere: bool = True,
     defines: Mapping[str, Any] | None = None,
     **more: Any,
 ) -> tuple[BestView, dict[str, Path]]:
     """Search the best view of the XML scene and write the three files (module docstring).
 
-    ``ignore`` names objects whose pixels count as background (:func:`best_view`).
+    ``ignore`` names objects whose pixels count as background, ``allow_below`` lets viewpoints
+    below the scene's ground compete (:func:`best_view`); ``sphere=False`` skips the picture.
+    Warns (``warnings.warn``) when the best view's render is mostly empty or black.
     ``defines`` fill the XML's ``<default>``s (the written film is the film they give). Returns
     the :class:`BestView` and the written paths by kind (``sensor``, ``render``, ``sphere``;
     no ``sphere`` where :func:`~mi_npr.viewpoint.plots_missing` says why).
@@ -59,16 +94,24 @@ def write_best_view(
         raise SceneError(f"{scene_path}: {e}") from None
     d = io.check_writable_dir(outdir, create=True)
     stem = stem or Path(scene_path).stem
-    view = viewing(scene, res=res, ignore=ignore)
+    view = viewing(scene, res=res, ignore=ignore, allow_below=allow_below)
     best = search(scene, view, measure, depth)
     out: dict[str, Path] = {}
     out["sensor"] = io.write_text(d / f"{stem}_best_view.xml", sensor_xml(best, scene))
     sensor = load_scene(out["sensor"]).sensors()[0]
     gb = render(scene, sensor=sensor, seed=seed)
     out["render"] = io.write_png(d / f"{stem}_best_view.png", gb.beauty)
-    if plots_missing():  # the picture needs matplotlib (the plots extra): skipped
+    if why := view_warning(np.asarray(gb["object_id"]), np.asarray(gb.beauty)):
+        warnings.warn(f"{stem}: the best view ({measure}) is mostly empty or black: {why}",
+                      stacklevel=2)  # fmt: skip
+    if not sphere or plots_missing():  # the picture needs matplotlib (the plots extra)
         return best, out
-    dirs, q = sample_sphere(scene, view, measure, samples)
+    dirs, q = best.viewpoints - best.target, best.qualities
+    if samples:
+        extra = fibonacci_sphere(int(samples))
+        extra = extra[view.allowed(extra)]
+        dirs = np.concatenate([dirs, extra])
+        q = np.concatenate([q, view.qualities(scene, view.origins(extra), measure)])
     front = camera_of(sensor_of(scene)).origin - view.target if scene.sensors() else None
     if front is not None and not np.any(front):
         front = None
