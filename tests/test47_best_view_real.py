@@ -240,7 +240,8 @@ def test08_warning_for_a_black_view_and_cheap_sphere(tmp_path, ply, monkeypatch)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a well-lit, well-filled view: no warning
         best, out = write_best_view(lit, tmp_path / "o2", "entropy", res=24)
-    assert sum(rated) == best.evaluations  # the sphere picture rated nothing more
+    # The search's evaluations and the warning's one ID buffer: the picture rated nothing more.
+    assert sum(rated) == best.evaluations + 1
     if "sphere" in out:
         assert out["sphere"].exists()
 
@@ -248,18 +249,46 @@ def test08_warning_for_a_black_view_and_cheap_sphere(tmp_path, ply, monkeypatch)
 def test09_view_warning_bounds():
     from mi_npr.viewpoint.outputs import DARK_LUMINANCE, EMPTY_FRACTION, view_warning
 
-    ids = np.ones((10, 10), np.uint32)
     rgb = np.full((10, 10, 3), 0.5)
-    assert view_warning(ids, rgb) is None
-    ids[:, :] = 0
-    ids[0, : round(100 * (1 - EMPTY_FRACTION))] = 1  # exactly at the bound: not over it
-    assert view_warning(ids, rgb) is None
-    ids[0, 0] = 0
-    assert "background" in view_warning(ids, rgb)
-    assert "luminance" in view_warning(np.ones((3, 3)), np.full((3, 3, 3), DARK_LUMINANCE / 2))
+    assert view_warning(0.0, rgb) is None
+    assert view_warning(EMPTY_FRACTION, rgb) is None  # at the bound: not over it
+    assert "91% of it is background" in view_warning(0.91, rgb)
+    dark = np.full((3, 3, 3), DARK_LUMINANCE / 2)
+    assert view_warning(0.0, dark) == f"its mean luminance is {DARK_LUMINANCE / 2:.3g}"
+    both = view_warning(1.0, np.zeros((2, 2, 3)))
+    assert "100% of it is background and its mean luminance is 0" == both
 
 
-def test10_cli_flags(tmp_path):
+@pytest.mark.parametrize("measure", MEASURES)
+def test10_a_closed_room_is_seen_from_inside(tmp_path, measure):
+    """Closed on all six sides by one-sided walls, the room shows only their backs to every
+    viewpoint outside: the search moves inside (a sphere of half the smallest half-extent) and
+    finds a view of the inner faces and the objects."""
+    walls = room_body() + _rect("front", '<rotate y="1" angle="180"/>', 'z="1"')
+    lamp = '<emitter type="point"><point name="position" x="0" y="0.8" z="0"/></emitter>'
+    path = _load(tmp_path, walls + lamp, "closed.xml", origin="0, 0, 4")
+    scene = mi_npr.load_scene(path)
+    outside = search.viewing(scene, res=48, allow_below=True)
+    a = outside.areas(scene, outside.origins(fibonacci_sphere(50)))
+    assert np.all(a[:, 0] >= 0.95 * a.sum(1))  # backs only, and what leaks through the seams
+    bv = best_view(path, measure, res=48)
+    assert np.all(np.abs(bv.origin) < 1.0)  # inside the room
+    assert bv.radius == pytest.approx(0.5) and bv.quality > 0 and bv.evaluations <= 40 - 13
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the view inside (lit by the lamp) is not empty or black
+        write_best_view(path, tmp_path / "o", measure, res=24, sphere=False)
+
+
+def test11_back_faces_count_as_empty_in_the_warning(tmp_path):
+    """A square facing down, seen from above only: its back, Mitsuba draws it black, and the
+    warning counts it as background (it has no inside to move to)."""
+    path = _load(tmp_path, _rect("sq", '<rotate x="1" angle="90"/>', 'y="0"'), "down.xml")
+    with pytest.warns(UserWarning, match="100% of it is background"):
+        best, _ = write_best_view(path, tmp_path / "o", "entropy", res=24, sphere=False)
+    assert best.quality == 0.0
+
+
+def test12_cli_flags(tmp_path):
     scene = _load(tmp_path, tilted_body(), "cube.xml", light=False)
     r = run_cli("best-view", str(scene), "--measure", "pb", "--res", "24", "--no-sphere",
                 "--allow-below", "-o", str(tmp_path / "out"), "--json")  # fmt: skip

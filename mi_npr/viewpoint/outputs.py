@@ -11,11 +11,11 @@ missing). The picture costs no ray casting: it interpolates the qualities the se
 Every file goes through :mod:`mi_npr.io` (temporary name, then rename).
 
 **An empty or black view.** After the render, :func:`view_warning` looks at it: more than
-:data:`EMPTY_FRACTION` of its pixels background (no object, or one-sided faces seen from behind
-count too: the ID buffer's rule), or a mean linear luminance of the beauty under
-:data:`DARK_LUMINANCE`, gives a ``warnings.warn`` (the CLI prints it as one line on stderr):
-the measures rated what they could see, and the scene may need ``--allow-below``, ``--ignore``
-or lights that reach the view.
+:data:`EMPTY_FRACTION` of the best view's ID buffer background (no object hit, or a one-sided
+face seen from behind: the measures' rule; ignored objects are not empty), or a mean linear
+luminance of the rendered beauty under :data:`DARK_LUMINANCE`, gives a ``warnings.warn`` (the
+CLI prints it as one line on stderr): the measures rated what they could see, and the scene may
+need ``--allow-below``, ``--ignore`` or lights that reach the view.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ from .. import io
 from ..errors import SceneError
 from ..render import render
 from ..scene import camera_of, load_scene, merge_defines, sensor_of
+from . import idbuffer
 from .camera import plots_missing, sensor_xml, sphere_image
 from .measures import check_measure
 from .search import BestView, check_shapes, fibonacci_sphere, search, viewing
@@ -45,12 +46,10 @@ EMPTY_FRACTION = 0.9
 DARK_LUMINANCE = 0.01
 
 
-def view_warning(object_id: np.ndarray, beauty: np.ndarray) -> str | None:
+def view_warning(empty: float, beauty: np.ndarray) -> str | None:
     """Why a rendered best view is not worth looking at (module docstring), or ``None``.
-    ``object_id`` (H, W) with 0 for the background, ``beauty`` (H, W, 3) linear RGB."""
-    ids = np.asarray(object_id)
+    ``empty``: the fraction of its pixels that are background; ``beauty`` (H, W, 3) linear RGB."""
     rgb = np.asarray(beauty, np.float64)[..., :3]
-    empty = float(np.mean(ids == 0)) if ids.size else 1.0
     lum = rgb @ np.array([0.2126, 0.7152, 0.0722]) if rgb.size else np.zeros(1)
     mean = float(np.mean(np.nan_to_num(lum)))
     why = []
@@ -101,7 +100,11 @@ def write_best_view(
     sensor = load_scene(out["sensor"]).sensors()[0]
     gb = render(scene, sensor=sensor, seed=seed)
     out["render"] = io.write_png(d / f"{stem}_best_view.png", gb.beauty)
-    if why := view_warning(np.asarray(gb["object_id"]), np.asarray(gb.beauty)):
+    ids = idbuffer.sparse_areas(
+        scene, [best.origin], best.target, best.fov, best.size, best.world_up, view.polygons
+    )
+    empty = float(ids.values[ids.cols == 0].sum() / max(ids.values.sum(), 1))
+    if why := view_warning(empty, np.asarray(gb.beauty)):
         warnings.warn(f"{stem}: the best view ({measure}) is mostly empty or black: {why}",
                       stacklevel=2)  # fmt: skip
     if not sphere or plots_missing():  # the picture needs matplotlib (the plots extra)

@@ -23,6 +23,15 @@ polygon appears, so their peaks are narrow. Never more than ``max_evaluations`` 
 rated (a level splits only the triangles whose midpoints still fit). Above the ground at
 ``depth=3``: 5 + 8 + 9 + 9 midpoints and a ring of 9, 40 in all.
 
+**A closed room.** When no viewpoint of the beam search's first level sees more than 5% of its
+image covered (:data:`INSIDE_BELOW`: a room closed by one-sided walls shows only their backs to
+the outside, and the light leaking through its seams), the viewpoints move inside the scene, onto
+the sphere of radius ``inner`` (half the smallest half-extent of the framed bounding box) around
+the target, and the search starts again there with what is left of the budget. Its result is
+returned if it beats the outside (a thin object, all back faces inside, stays seen from
+outside); its ``evaluations`` then leave out the 13 or 18 rated outside. Only with the default
+``target`` and ``radius``.
+
 Either way the result is the best viewpoint evaluated. Ties go to the first candidate in the
 order above (+x, -x, +y, -y, +z, -z; octants in the order of :data:`OCTANTS`).
 
@@ -95,6 +104,9 @@ class Viewing:
     keep: np.ndarray | None = field(default=None, repr=False)
     #: viewpoints below the plane through the target normal to ``up`` are allowed too
     allow_below: bool = False
+    #: radius of the sphere of viewpoints inside the scene, tried when nothing can be seen from
+    #: outside (0: never; module docstring)
+    inner: float = 0.0
 
     def origins(self, directions: np.ndarray) -> np.ndarray:
         d = np.asarray(directions, np.float64).reshape(-1, 3)
@@ -111,13 +123,22 @@ class Viewing:
         return self.sparse_areas(scene, origins).dense().astype(np.uint32)
 
     def qualities(self, scene: mi.Scene, origins: np.ndarray, measure: str) -> np.ndarray:
+        return self.rate(scene, origins, measure)[0]
+
+    def rate(
+        self, scene: mi.Scene, origins: np.ndarray, measure: str
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The quality of each viewpoint and the fraction of its image that is background."""
         a = self.sparse_areas(scene, origins)
         topo = self.polygons.topology() if measure == "curvature" else None
         if self.keep is not None:  # ignored objects' pixels become background
             a = a.merge(self.keep)
             if topo is not None:
                 topo = Topology(topo.polygon_vertices[self.keep], topo.vertex_term)
-        return np.asarray(MEASURES[measure](a, topo), np.float64).reshape(-1)
+        q = np.asarray(MEASURES[measure](a, topo), np.float64).reshape(-1)
+        total = np.bincount(a.rows, weights=a.values, minlength=a.shape[0])
+        empty = np.bincount(a.rows[a.cols == 0], weights=a.values[a.cols == 0], minlength=len(q))
+        return q, empty / np.maximum(total, 1)
 
     def allowed(self, directions: np.ndarray) -> np.ndarray:
         """Which unit ``directions`` (from the target) are allowed viewpoints: those on the
@@ -148,11 +169,12 @@ def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray
 
 def _bounding_sphere(
     scene: mi.Scene, polys: idbuffer.Polygons | None = None, ignore: Sequence[str] = ()
-) -> tuple[np.ndarray, float]:
+) -> tuple[np.ndarray, float, float]:
     """The scene's bounding sphere, or that of the objects not in ``ignore`` (a floor left out
-    of the measures is left out of the framing too)."""
+    of the measures is left out of the framing too), and the radius of the sphere of viewpoints
+    inside it (half the box's smallest half-extent)."""
     if not scene.shapes():
-        return np.zeros(3), 0.0
+        return np.zeros(3), 0.0, 0.0
     bb = scene.bbox()
     if ignore and polys is not None:
         kept = [s for k, s in polys.table.shapes.items() if polys.table.names[k] not in ignore]
@@ -164,7 +186,8 @@ def _bounding_sphere(
     r = float(np.asarray(bs.radius).ravel()[0])
     if not (np.all(np.isfinite(c)) and math.isfinite(r)):
         raise SceneError("the scene's bounding box is not finite: give target and radius")
-    return c, r
+    extent = np.asarray(bb.max, np.float64).ravel()[:3] - np.asarray(bb.min, np.float64).ravel()[:3]
+    return c, r, 0.25 * float(extent.min())
 
 
 def _nearest_axis(v: np.ndarray) -> np.ndarray:
@@ -204,7 +227,9 @@ def viewing(
     polys = idbuffer.polygons(scene)
     ignore = (ignore,) if isinstance(ignore, str) else tuple(ignore)
     keep = _kept_columns(polys, ignore)  # checks the names first
-    centre, R = _bounding_sphere(scene, polys, ignore)
+    centre, R, inner = _bounding_sphere(scene, polys, ignore)
+    if target is not None or radius is not None:
+        inner = 0.0  # the user's sphere: no other
     if target is None:
         tgt = centre
     else:
@@ -222,7 +247,7 @@ def viewing(
         or not (math.isfinite(radius) and radius > 0)
     ):
         raise ParameterError(f"radius = {radius!r}: must be a positive number")
-    return Viewing(tgt, float(radius), fov, size, up, polys, keep, bool(allow_below))
+    return Viewing(tgt, float(radius), fov, size, up, polys, keep, bool(allow_below), inner)
 
 
 def qualities(
@@ -342,6 +367,10 @@ def _edge(u: int, v: int) -> tuple[int, int]:
     return (u, v) if u < v else (v, u)
 
 
+#: The search moves inside the scene when no viewpoint of its first level sees more than this
+#: fraction of its image covered (module docstring).
+INSIDE_BELOW = 0.05
+
 #: Default width of the search (triangles kept at each level) and its cap on evaluations.
 BEAM = 3
 MAX_EVALUATIONS = 40
@@ -418,7 +447,9 @@ def search(
     used = sorted({int(i) for t in octants for i in t})
     dirs: list[np.ndarray] = [AXES[i] for i in used]
     tris = [[used.index(int(i)) for i in t] for t in octants]
-    q: list[float] = list(view.qualities(scene, view.origins(np.asarray(dirs)), measure))
+    q0, empty = view.rate(scene, view.origins(np.asarray(dirs)), measure)
+    q: list[float] = list(q0)
+    seen = float(1.0 - empty.min())  # the most any viewpoint rated so far sees of the scene
     paper = beam == 1
 
     def score(t: list[int]) -> float:
@@ -446,11 +477,20 @@ def search(
         for e in new:
             mids[e] = len(dirs)
             dirs.append(_midpoint(dirs[e[0]], dirs[e[1]]))
-        q.extend(view.qualities(scene, view.origins(np.asarray(dirs[-len(new) :])), measure))
+        qm, empty = view.rate(scene, view.origins(np.asarray(dirs[-len(new) :])), measure)
+        q.extend(qm)
+        seen = max(seen, float(1.0 - empty.min()))
         tris = []
         for a, b, c in kept:
             ab, bc, ca = (mids[_edge(u, v)] for u, v in ((a, b), (b, c), (c, a)))
             tris.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]])
+        if level == 0 and not paper and view.inner > 0 and seen < INSIDE_BELOW:
+            # Nothing seen from outside (a closed room of one-sided walls, light leaking through
+            # its seams at most): look from inside.
+            inside = replace(view, radius=view.inner, inner=0.0)
+            bv = search(scene, inside, measure, depth, beam, max_evaluations - len(dirs))
+            if bv.quality > max(q):  # not a thin object that is all back faces inside
+                return bv
     left = max_evaluations - len(dirs)
     if not paper and left >= 3:
         # Polish: the rest of the budget on a ring around the best viewpoint, half a final
