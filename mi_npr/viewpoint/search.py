@@ -394,10 +394,11 @@ def best_view(
     """Search the viewing sphere for the best viewpoint under ``measure`` (module docstring).
 
     ``depth`` levels of subdivision follow the 8 (4 above the ground) spherical triangles of
-    Fig. 1; at each level the ``beam`` best triangles are split, their new vertices rated in
-    one batched evaluation, never more than ``max_evaluations`` in all. ``allow_below`` lets
-    viewpoints below the scene's ground (the side opposite its up axis) compete.
-    ``beam=1, allow_below=True`` is the paper's search (``6 + 3 depth`` evaluations).
+    Fig. 1: the first splits them all, each next one the ``beam`` triangles with the best
+    vertex, and a ring around the best viewpoint takes what is left of ``max_evaluations``
+    (never exceeded but by the 5 or 6 axis points). ``allow_below`` lets viewpoints below the
+    scene's ground (the side opposite its up axis) compete. ``beam=1, allow_below=True`` is the
+    paper's search: one triangle by vertex sum per level, ``6 + 3 depth`` evaluations, no cap.
 
     >>> from mi_npr.viewpoint import best_view
     >>> bv = best_view("scenes_xml/scene4.xml", "entropy", depth=3)  # doctest: +SKIP
@@ -484,11 +485,12 @@ def search(
         for a, b, c in kept:
             ab, bc, ca = (mids[_edge(u, v)] for u, v in ((a, b), (b, c), (c, a)))
             tris.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]])
-        if level == 0 and not paper and view.inner > 0 and seen < INSIDE_BELOW:
+        left = max_evaluations - len(dirs)
+        if level == 0 and not paper and view.inner > 0 and seen < INSIDE_BELOW and left >= len(q):
             # Nothing seen from outside (a closed room of one-sided walls, light leaking through
             # its seams at most): look from inside.
             inside = replace(view, radius=view.inner, inner=0.0)
-            bv = search(scene, inside, measure, depth, beam, max_evaluations - len(dirs))
+            bv = search(scene, inside, measure, depth, beam, left)
             if bv.quality > max(q):  # not a thin object that is all back faces inside
                 return bv
     left = max_evaluations - len(dirs)
