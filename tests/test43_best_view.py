@@ -98,6 +98,9 @@ def test03_search_equals_the_plain_reference(cube, monkeypatch, peak):
         return np.array([rate(x) for x in d])
 
     monkeypatch.setattr(search.Viewing, "qualities", fake)
+    monkeypatch.setattr(
+        search.Viewing, "rate", lambda *a: (fake(*a), np.zeros(len(a[2])), np.zeros(len(a[2])))
+    )
     bv = best_view(cube, "pb", depth=6, res=8, beam=1, allow_below=True)  # the paper's search
     pts, q, tri = reference_search(rate, 6)
     np.testing.assert_allclose((bv.viewpoints - bv.target) / bv.radius, pts, atol=1e-12)

@@ -4,6 +4,7 @@ and the cheap (or skipped) quality-sphere picture."""
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -116,6 +117,10 @@ def test01_back_faces_of_one_sided_shapes_are_background(tmp_path):
     assert front[0, 1:].sum() == 256 and front[0, 0] == 32 * 32 - 256
     assert back[0, 0] == 32 * 32 and back[0, 1:].sum() == 0
     np.testing.assert_array_equal(back2[0, 0], front[0, 0])
+    # The background's share of backs, counted apart: all of it from behind, none in front.
+    sp = idbuffer.sparse_areas(one, [[0, 0, -2], [0, 0, 2]], (0, 0, 0), 90.0, (32, 32))
+    np.testing.assert_array_equal(sp.back, [256, 0])
+    np.testing.assert_array_equal(sp.dense(), np.concatenate([back, front]))
     assert idbuffer.one_sided(one.shapes()[0]) and not idbuffer.one_sided(two.shapes()[0])
 
 
@@ -299,3 +304,30 @@ def test12_cli_flags(tmp_path):
     ]
     warn = [line for line in r.stderr.splitlines() if "warning:" in line]
     assert len(warn) == 1 and "mostly empty or black" in warn[0]
+
+
+def test13_beam_search_on_an_analytic_quality(tmp_path, monkeypatch):
+    """An analytic quality with a broad low hill and a narrow higher peak between the octant
+    vertices: the beam search (<= 40 evaluations, all above the ground) climbs the peak to
+    within a final triangle edge, where the paper's one-triangle search, which sees only the
+    axis points before it chooses an octant, follows the hill."""
+    hill = np.array([1.0, 0.2, 0.0]) / np.linalg.norm([1.0, 0.2, 0.0])
+    peak = np.array([-1.0, 0.3, 1.0]) / np.linalg.norm([-1.0, 0.3, 1.0])
+
+    def rate(d):
+        return 0.8 * np.exp(2.0 * (d @ hill - 1.0)) + np.exp(12.0 * (d @ peak - 1.0))
+
+    def fake(self, scene, origins, measure):
+        d = (origins - self.target) / self.radius
+        return rate(d), np.zeros(len(d)), np.zeros(len(d))
+
+    monkeypatch.setattr(search.Viewing, "rate", fake)
+    path = _load(tmp_path, tilted_body())
+    bv = best_view(path, "pb", res=8)
+    assert bv.evaluations <= 40
+    d = (bv.viewpoints - bv.target) / bv.radius
+    assert np.all(d[:, 1] >= -1e-12)
+    np.testing.assert_allclose(bv.qualities, rate(d), rtol=1e-12)
+    assert math.degrees(math.acos(min(1.0, bv.direction @ peak))) < 90.0 / 2**3
+    paper = best_view(path, "pb", res=8, beam=1, depth=4, allow_below=True)
+    assert paper.quality < 0.95 * bv.quality

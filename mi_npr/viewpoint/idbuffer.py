@@ -91,10 +91,10 @@ class Polygons:
     _one_sided: Any = field(repr=False)  # registry index of si.shape -> 1 if its BSDF has no back
     _topology: Topology | None = field(default=None, repr=False)
 
-    def index(self, si: mi.SurfaceInteraction3f, oid: Any, d: Any = None) -> Any:
+    def index(self, si: mi.SurfaceInteraction3f, oid: Any, d: Any = None, back: int = 0) -> Any:
         """Polygon index (``UInt32``, 0 = background) of each interaction with object ``oid``;
-        with the ray directions ``d``, a one-sided shape seen from its back is background
-        (module docstring)."""
+        with the ray directions ``d``, a one-sided shape seen from its back is background, or
+        ``back`` where given (module docstring)."""
         reg = dr.reinterpret_array(mi.UInt32, si.shape)
         size = dr.width(self._local)
         known = (oid > 0) & (reg < size)
@@ -102,11 +102,11 @@ class Polygons:
         local = dr.gather(mi.UInt32, self._local, r, known)
         last = dr.select(known, dr.gather(mi.UInt32, self._last, r, known), _ALL_ONES)
         within = dr.minimum(local + dr.minimum(si.prim_index, last), self._gather(self._span, oid))
-        seen = oid > 0
+        index = dr.select(oid > 0, self._gather(self._base, oid) + within + 1, 0)
         if d is not None:
             one_sided = dr.gather(mi.UInt32, self._one_sided, r, known) > 0
-            seen &= ~(one_sided & (dr.dot(si.n, d) > 0))
-        return dr.select(seen, self._gather(self._base, oid) + within + 1, 0)
+            index = dr.select((oid > 0) & one_sided & (dr.dot(si.n, d) > 0), back, index)
+        return index
 
     @staticmethod
     def _gather(table: Any, oid: Any) -> Any:
@@ -273,14 +273,15 @@ def _count_batch(
     fov: float,
     size: tuple[int, int],
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(view, polygon, pixels)`` of every (view, polygon) pair seen in this batch."""
+    """``(view, polygon, pixels)`` of every (view, polygon) pair seen in this batch; polygon
+    ``n + 1`` counts the back faces that are background (module docstring)."""
     rays, view = pinhole_rays(origin, frame, fov, size)
     hits = cast(scene, rays, polys.table, detail="minimal")
-    poly = polys.index(hits.si, hits.object_id, rays.d)
+    poly = polys.index(hits.si, hits.object_id, rays.d, back=polys.n + 1)
     dr.eval(poly)
-    key = view.numpy().astype(np.int64) * (polys.n + 1) + poly.numpy()
+    key = view.numpy().astype(np.int64) * (polys.n + 2) + poly.numpy()
     cells, counts = np.unique(key, return_counts=True)
-    return cells // (polys.n + 1), cells % (polys.n + 1), counts
+    return cells // (polys.n + 2), cells % (polys.n + 2), counts
 
 
 def sparse_areas(
@@ -315,7 +316,16 @@ def sparse_areas(
     if not parts:
         return SparseAreas.from_dense(np.zeros((0, polys.n + 1), np.uint32))
     rows, cols, vals = (np.concatenate(x) for x in zip(*parts, strict=True))
-    return SparseAreas(rows, cols, vals, (len(o), polys.n + 1))
+    is_back = cols == polys.n + 1
+    back = np.bincount(rows[is_back], weights=vals[is_back], minlength=len(o)).astype(np.int64)
+    if np.any(is_back):  # into the background, with the misses of the same view
+        bg = np.zeros(len(o), np.int64)
+        np.add.at(bg, rows[cols == 0], vals[cols == 0])
+        keep = (cols > 0) & ~is_back
+        rows = np.concatenate([np.flatnonzero(bg + back), rows[keep]])
+        cols = np.concatenate([np.zeros(np.count_nonzero(bg + back), np.int64), cols[keep]])
+        vals = np.concatenate([(bg + back)[bg + back > 0], vals[keep]])
+    return SparseAreas(rows, cols, vals, (len(o), polys.n + 1), back)
 
 
 def areas(

@@ -61,6 +61,9 @@ class SparseAreas:
     cols: np.ndarray
     values: np.ndarray
     shape: tuple[int, int]
+    #: per viewpoint, the part of column 0 that is one-sided faces seen from behind (not empty
+    #: space), where the ID buffers counted it
+    back: np.ndarray | None = None
 
     @classmethod
     def from_dense(cls, areas: np.ndarray) -> SparseAreas:
@@ -82,7 +85,7 @@ class SparseAreas:
         width = int(keep.sum())
         cells, inv = np.unique(self.rows * width + cols, return_inverse=True)
         vals = np.bincount(inv.ravel(), weights=self.values, minlength=len(cells))
-        return SparseAreas(cells // width, cells % width, vals, (self.shape[0], width))
+        return SparseAreas(cells // width, cells % width, vals, (self.shape[0], width), self.back)
 
 
 def _check(areas: np.ndarray | SparseAreas) -> tuple[SparseAreas, tuple[int, ...]]:

@@ -24,8 +24,9 @@ rated (a level splits only the triangles whose midpoints still fit). Above the g
 ``depth=3``: 5 + 8 + 9 + 9 midpoints and a ring of 9, 40 in all.
 
 **A closed room.** When no viewpoint of the beam search's first level sees more than 5% of its
-image covered (:data:`INSIDE_BELOW`: a room closed by one-sided walls shows only their backs to
-the outside, and the light leaking through its seams), the viewpoints move inside the scene, onto
+image covered (:data:`INSIDE_BELOW`) and one sees more than a tenth of it filled with the backs
+of one-sided faces (:data:`CLOSED_ABOVE`): a room closed by one-sided walls shows only their backs
+to the outside, and what leaks through its seams, the viewpoints move inside the scene, onto
 the sphere of radius ``inner`` (half the smallest half-extent of the framed bounding box) around
 the target, and the search starts again there with what is left of the budget. Its result is
 returned if it beats the outside (a thin object, all back faces inside, stays seen from
@@ -127,8 +128,9 @@ class Viewing:
 
     def rate(
         self, scene: mi.Scene, origins: np.ndarray, measure: str
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The quality of each viewpoint and the fraction of its image that is background."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The quality of each viewpoint, and the fractions of its image that are background
+        and one-sided faces seen from behind (a part of the background)."""
         a = self.sparse_areas(scene, origins)
         topo = self.polygons.topology() if measure == "curvature" else None
         if self.keep is not None:  # ignored objects' pixels become background
@@ -138,7 +140,8 @@ class Viewing:
         q = np.asarray(MEASURES[measure](a, topo), np.float64).reshape(-1)
         total = np.bincount(a.rows, weights=a.values, minlength=a.shape[0])
         empty = np.bincount(a.rows[a.cols == 0], weights=a.values[a.cols == 0], minlength=len(q))
-        return q, empty / np.maximum(total, 1)
+        back = a.back if a.back is not None else np.zeros(len(q))
+        return q, empty / np.maximum(total, 1), back / np.maximum(total, 1)
 
     def allowed(self, directions: np.ndarray) -> np.ndarray:
         """Which unit ``directions`` (from the target) are allowed viewpoints: those on the
@@ -370,6 +373,9 @@ def _edge(u: int, v: int) -> tuple[int, int]:
 #: The search moves inside the scene when no viewpoint of its first level sees more than this
 #: fraction of its image covered (module docstring).
 INSIDE_BELOW = 0.05
+#: ... and some viewpoint sees more than this fraction of its image filled with the backs of
+#: one-sided faces (a sparse scene, mostly empty space, stays seen from outside).
+CLOSED_ABOVE = 0.1
 
 #: Default width of the search (triangles kept at each level) and its cap on evaluations.
 BEAM = 3
@@ -448,9 +454,10 @@ def search(
     used = sorted({int(i) for t in octants for i in t})
     dirs: list[np.ndarray] = [AXES[i] for i in used]
     tris = [[used.index(int(i)) for i in t] for t in octants]
-    q0, empty = view.rate(scene, view.origins(np.asarray(dirs)), measure)
+    q0, empty, back = view.rate(scene, view.origins(np.asarray(dirs)), measure)
     q: list[float] = list(q0)
     seen = float(1.0 - empty.min())  # the most any viewpoint rated so far sees of the scene
+    backs = float(back.max())  # ... and of the backs of one-sided faces
     paper = beam == 1
 
     def score(t: list[int]) -> float:
@@ -478,17 +485,18 @@ def search(
         for e in new:
             mids[e] = len(dirs)
             dirs.append(_midpoint(dirs[e[0]], dirs[e[1]]))
-        qm, empty = view.rate(scene, view.origins(np.asarray(dirs[-len(new) :])), measure)
+        qm, empty, back = view.rate(scene, view.origins(np.asarray(dirs[-len(new) :])), measure)
         q.extend(qm)
-        seen = max(seen, float(1.0 - empty.min()))
+        seen, backs = max(seen, float(1.0 - empty.min())), max(backs, float(back.max()))
         tris = []
         for a, b, c in kept:
             ab, bc, ca = (mids[_edge(u, v)] for u, v in ((a, b), (b, c), (c, a)))
             tris.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]])
         left = max_evaluations - len(dirs)
-        if level == 0 and not paper and view.inner > 0 and seen < INSIDE_BELOW and left >= len(q):
-            # Nothing seen from outside (a closed room of one-sided walls, light leaking through
-            # its seams at most): look from inside.
+        closed = seen < INSIDE_BELOW and backs > CLOSED_ABOVE
+        if level == 0 and not paper and view.inner > 0 and closed and left >= len(q):
+            # Only backs seen from outside (a closed room of one-sided walls, and what leaks
+            # through its seams): look from inside.
             inside = replace(view, radius=view.inner, inner=0.0)
             bv = search(scene, inside, measure, depth, beam, left)
             if bv.quality > max(q):  # not a thin object that is all back faces inside
