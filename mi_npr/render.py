@@ -25,6 +25,7 @@ import numpy as np
 from . import layers as L
 from ._version import __version__
 from .gbuffer import GBuffer, to_numpy
+from .memory import check_render, render_passes
 from .raycast import Hits, cast, film_grid, film_size, pixel_rays, require_jit
 from .scene import ObjectTable, camera_of, merge_defines, sensor_of
 from .session import SceneSession, check_spp
@@ -90,10 +91,16 @@ def gbuffer_layers(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, shade
 
 
 def beauty_layers(
-    scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Integrator, spp: int, seed: int
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    integrator: mi.Integrator,
+    spp: int,
+    seed: int,
+    passes: int = 1,
 ) -> dict[str, np.ndarray]:
-    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B."""
-    img = integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
+    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B
+    (in ``passes`` renders when memory asks for it, :mod:`mi_npr.memory`)."""
+    img = render_passes(integrator, scene, sensor, spp, seed, passes)
     a = to_numpy(img)
     if a.ndim != 3 or a.shape[-1] < 3:
         # Mono variants or odd films: replicate the first channel.
@@ -122,11 +129,12 @@ def render_gbuffer(
         require_jit()
         session = SceneSession(scene, sensor_of(scene, sensor), source, spp)
     sensor = session.sensor
+    passes = check_render(sensor, beauty, spp, seed)  # table checks, memory (issue 18)
     with session.step("rendering"):
         table = session.objects
         layers = gbuffer_layers(session.scene, sensor, table, shade=beauty is None)
         if beauty is not None:
-            layers.update(beauty_layers(session.scene, sensor, beauty, spp or 0, seed))
+            layers.update(beauty_layers(session.scene, sensor, beauty, spp or 0, seed, passes))
     ordered = {k: layers[k] for k in L.GBUFFER}
     spp_used = spp if spp is not None else sensor.sampler().sample_count()
     meta = {

@@ -88,7 +88,7 @@ def test01_ids_and_depth_match_closed_form(write_scene, case):
     path = _sphere_scene(write_scene, case)
     gb = mi_npr.render(path)
     mask, Z, P, N, outline = analytic_sphere(**case)
-    ids = gb["object_id"]
+    ids = gb["object_id.V"]
     assert gb.objects == {1: "ball"}
     wrong = (ids == 1) != mask
     assert not np.any(wrong & (outline > 1e-4)), "id differs away from the outline"
@@ -120,7 +120,7 @@ def test02_pixel_centre_rays_equal_scene_ray_intersect(write_scene):
     depth = np.where(si.is_valid().numpy(), depth.numpy(), np.inf).reshape(h, w)
     np.testing.assert_allclose(gb["Z"], depth, rtol=1e-5)
     hit = si.is_valid().numpy().reshape(h, w)
-    np.testing.assert_array_equal(gb["object_id"], hit.astype(np.uint32))
+    np.testing.assert_array_equal(gb["object_id.V"], hit.astype(np.uint32))
     # Z is along the view axis, not along the ray: t * cos(angle) + the near-clip offset.
     cos = dr.dot(ray.d, dr.normalize(T @ mi.Vector3f(0, 0, 1))).numpy().reshape(h, w)
     t = si.t.numpy().reshape(h, w)
@@ -153,5 +153,5 @@ def test04_cuda_variant_matches_llvm(write_scene):
     except mi_npr.ParameterError as e:
         pytest.skip(f"CUDA unavailable here: {e}")
     cuda = mi_npr.render(path)
-    np.testing.assert_array_equal(cuda["object_id"], llvm["object_id"])
+    np.testing.assert_array_equal(cuda["object_id.V"], llvm["object_id.V"])
     np.testing.assert_allclose(cuda["Z"], llvm["Z"], rtol=1e-5)

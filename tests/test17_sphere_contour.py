@@ -57,6 +57,7 @@ def test02_frame_range_loses_the_farthest_rim(write_scene):
     frame = np.asarray(K.depth_contours(K.normalize_depth(gb["Z"]), C, T))
     fixed = np.asarray(K.depth_contours(K.normalize_depth(gb["Z"], far=20.0), C, T))
     assert frame[farthest] == 0.0 and fixed[farthest] == 1.0
+    assert np.asarray(K.lines(gb))[farthest] == 1.0  # the chain's background is beyond (issue 18)
 
 
 def test03_lines_of_a_box_in_front_of_a_wall(write_scene):

@@ -99,6 +99,7 @@ def test04_defaults_are_the_chains_defaults():
     own = ["line_color", "line_aa"]
     assert [p.name for p in integ.PARAMS] == [*chain[:-2], *own, *chain[-2:]]
     defaults = {p.name: p.default for p in K.LINES_PARAMS}
+    own = ("line_color", "line_aa", "cryptomatte")  # the plugin's own and every integrator's
     assert {k: v for k, v in integ.params.items() if k not in own} == defaults
     assert integ.params["line_aa"] == 3  # issue 19: chosen by measurement
     assert integ.params["line_color"] == (0.0, 0.0, 0.0)

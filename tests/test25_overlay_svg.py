@@ -81,11 +81,11 @@ def test03_svg_parses_and_groups_per_object():
     assert d.startswith("M 1.5 2.5 L 2.5 2.5") and d.endswith(" Z")
     nums = [float(v) for v in d.replace("M", "").replace("L", "").replace("Z", "").split()]
     np.testing.assert_array_equal(np.reshape(nums, (-1, 2)) - 0.5, contours[0].points)
-    image = root.find(f"{SVG}image")
+    image = root.find(f".//{SVG}image")
     href = image.get("href")
     png = Image.open(io.BytesIO(base64.b64decode(href.split(",", 1)[1])))
     assert png.size == (12, 10) and png.mode == "RGB"
-    assert root.find(f"{SVG}g").get("stroke") == "#ff0000"
+    assert root.find(f"{SVG}g[@id='contours']").get("stroke") == "#ff0000"
 
 
 def test04_svg_options_and_odd_names(tmp_path):
@@ -101,14 +101,14 @@ def test04_svg_options_and_odd_names(tmp_path):
     root = ET.parse(path).getroot()  # well-formed
     names = [g.get("data-name") for g in root.findall(f"{SVG}g/{SVG}g")]
     assert names[3] == "tab\tbell\ufffd <&>" and root.find(f"{SVG}title").text == "a\ufffd & b"
-    assert root.find(f"{SVG}image") is None
+    assert root.find(f".//{SVG}image") is None
     ids = [g.get("id") for g in root.findall(f"{SVG}g/{SVG}g")]
     assert len(set(ids)) == 4 and "beauty" not in ids  # the image's id stays unique
     paths = root.findall(f".//{SVG}path")
     assert paths[0].get("d") == "M 0.5 0.5 Z" and not paths[1].get("d").endswith("Z")
-    assert root.find(f"{SVG}g").get("stroke") == "#00ff00"
-    assert root.find(f"{SVG}g").get("stroke-width") == "2"
+    assert root.find(f"{SVG}g[@id='contours']").get("stroke") == "#00ff00"
+    assert root.find(f"{SVG}g[@id='contours']").get("stroke-width") == "2"
     with pytest.raises(mi_npr.ParameterError, match="beauty"):
         svg_document(cs, 5, 5, beauty=np.zeros((4, 5, 3)))
-    with pytest.raises(mi_npr.ParameterError, match="size"):
+    with pytest.raises(mi_npr.ParameterError, match="width"):
         svg_document(cs, 0, 5)

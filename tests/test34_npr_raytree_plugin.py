@@ -116,7 +116,9 @@ def test07_sample_fallback_and_to_string(write_scene):
     mi = mi_npr.mi
     scene = mi_npr.load_scene(write_scene(SCENE, integrator=raytree_integrator(2)))
     integ = scene.integrator()
-    assert "NprRayTreeIntegrator[beauty=DirectIntegrator, max_depth=2]" in str(integ)
+    assert "NprRayTreeIntegrator[beauty=DirectIntegrator, max_depth=2, cryptomatte=False]" in str(
+        integ
+    )
     ray, _ = scene.sensors()[0].sample_ray(0.0, 0.5, mi.Point2f([0.5], [0.5]), mi.Point2f(0.5))
     sampler = mi.load_dict({"type": "independent"})
     sampler.seed(0, 1)

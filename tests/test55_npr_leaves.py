@@ -87,8 +87,8 @@ def test02_leaf_id_layer_and_npr_lines(files):
     first, more = ids == gb.find_object("leaves"), ids == gb.find_object("more")
     n_first = len(fo.make_leaves(hlps, plant, leaf_size=0.3))
     expected = np.zeros(ids.shape, np.uint32)
-    expected[first] = gb["prim_id"][first] // 2 + 1
-    expected[more] = gb["prim_id"][more] // 2 + 1 + n_first
+    expected[first] = gb["prim_id.V"][first] // 2 + 1
+    expected[more] = gb["prim_id.V"][more] // 2 + 1 + n_first
     np.testing.assert_array_equal(gb[L.LEAF_ID], expected)
     assert gb[L.LEAF_ID][first].max() <= n_first < gb[L.LEAF_ID][more].min()
     # The lines hold every leaf outline: each boundary between two leaves has a line pixel.

@@ -77,5 +77,5 @@ def test03_errors_are_one_line_and_write_nothing(tmp_path, capsys):
 
 def test04_drawing_needs_lines():
     gb = mi_npr.GBuffer({L.Z: np.ones((2, 2), np.float32)})
-    with pytest.raises(mi_npr.ParameterError, match="no 'lines' layer"):
+    with pytest.raises(mi_npr.ParameterError, match=r"no 'lines\.V' layer"):
         drawing(gb)

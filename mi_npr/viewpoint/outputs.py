@@ -26,16 +26,18 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import mitsuba as mi
 import numpy as np
 
 from .. import io
 from ..errors import SceneError
+from ..params import check_arg, cli_param
 from ..render import render
 from ..scene import camera_of, load_scene, merge_defines, sensor_of
 from . import idbuffer
 from .camera import plots_missing, sensor_xml, sphere_image
 from .measures import check_measure
-from .search import BestView, check_shapes, fibonacci_sphere, search, viewing
+from .search import BestView, Viewing, check_shapes, fibonacci_sphere, search, viewing
 
 #: Extra viewpoints rated for the quality sphere picture (Fibonacci lattice, allowed side
 #: only): none by default, the search's own evaluations are drawn.
@@ -86,6 +88,8 @@ def write_best_view(
     no ``sphere`` where :func:`~mi_npr.viewpoint.plots_missing` says why).
     """
     check_measure(measure)
+    depth = check_arg("write_best_view", cli_param("best-view", "--depth"), depth)
+    res = check_arg("write_best_view", cli_param("best-view", "--res"), res)
     scene = load_scene(scene_path, merge_defines(defines, more))
     try:
         check_shapes(scene)
@@ -96,36 +100,47 @@ def write_best_view(
     view = viewing(scene, res=res, ignore=ignore, allow_below=allow_below)
     best = search(scene, view, measure, depth)
     out: dict[str, Path] = {}
-    out["sensor"] = io.write_text(d / f"{stem}_best_view.xml", sensor_xml(best, scene))
-    sensor = load_scene(out["sensor"]).sensors()[0]
-    gb = render(scene, sensor=sensor, seed=seed)
-    out["render"] = io.write_png(d / f"{stem}_best_view.png", gb.beauty)
-    ids = idbuffer.sparse_areas(
-        scene, [best.origin], best.target, best.fov, best.size, best.world_up, view.polygons
-    )
-    empty = float(ids.values[ids.cols == 0].sum() / max(ids.values.sum(), 1))
-    if why := view_warning(empty, np.asarray(gb.beauty)):
+    with io.output_set():  # the XML and its PNGs together, or none of them
+        text = sensor_xml(best, scene)
+        sensor = mi.load_string(text).sensors()[0]
+        out["sensor"] = io.write_text(d / f"{stem}_best_view.xml", text)
+        gb = render(scene, sensor=sensor, seed=seed)
+        out["render"] = io.write_png(d / f"{stem}_best_view.png", gb.beauty)
+        ids = idbuffer.sparse_areas(
+            scene, [best.origin], best.target, best.fov, best.size, best.world_up, view.polygons
+        )
+        empty = float(ids.values[ids.cols == 0].sum() / max(ids.values.sum(), 1))
+        why = view_warning(empty, np.asarray(gb.beauty))
+        if sphere and not plots_missing():  # the picture needs matplotlib (the plots extra)
+            out["sphere"] = io.write_png(
+                d / f"{stem}_quality_sphere.png", _sphere_picture(scene, view, best, stem, samples),
+                linear=False,
+            )  # fmt: skip
+    if why:  # after the files are in place: a warning turned into an error keeps them
         warnings.warn(f"{stem}: the best view ({measure}) is mostly empty or black: {why}",
                       stacklevel=2)  # fmt: skip
-    if not sphere or plots_missing():  # the picture needs matplotlib (the plots extra)
-        return best, out
+    return best, out
+
+
+def _sphere_picture(
+    scene: mi.Scene, view: Viewing, best: BestView, stem: str, samples: int
+) -> np.ndarray:
+    """The quality sphere from the search's evaluations (and ``samples`` more viewpoints)."""
     dirs, q = best.viewpoints - best.target, best.qualities
     if samples:
         extra = fibonacci_sphere(int(samples))
         extra = extra[view.allowed(extra)]
         dirs = np.concatenate([dirs, extra])
-        q = np.concatenate([q, view.qualities(scene, view.origins(extra), measure)])
+        q = np.concatenate([q, view.qualities(scene, view.origins(extra), best.measure)])
     front = camera_of(sensor_of(scene)).origin - view.target if scene.sensors() else None
     if front is not None and not np.any(front):
         front = None
-    picture = sphere_image(
+    return sphere_image(
         dirs,
         q,
         best.direction,
         best.viewpoints - best.target,
         front,
-        title=f"{stem}: {measure}, best {best.quality:.4g} (red), evaluated (white)",
+        title=f"{stem}: {best.measure}, best {best.quality:.4g} (red), evaluated (white)",
         labels=("seen from the scene's camera", "opposite side"),
     )
-    out["sphere"] = io.write_png(d / f"{stem}_quality_sphere.png", picture, linear=False)
-    return best, out

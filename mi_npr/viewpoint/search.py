@@ -72,6 +72,8 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError, SceneError
+from ..memory import check_images
+from ..params import check_arg, cli_param
 from ..scene import camera_of, load_scene, sensor_of, shape_bbox
 from . import idbuffer
 from .measures import MEASURES, SparseAreas, Topology, check_measure
@@ -227,6 +229,7 @@ def viewing(
     if not 0.0 < fov < 180.0:
         raise ParameterError(f"fov = {fov!r}: must be in (0, 180) degrees")
     size = idbuffer.image_size(res, aspect)
+    check_images(size[0], size[1], 6, "ID buffers")  # the largest batch (the first level)
     polys = idbuffer.polygons(scene)
     ignore = (ignore,) if isinstance(ignore, str) else tuple(ignore)
     keep = _kept_columns(polys, ignore)  # checks the names first
@@ -411,14 +414,11 @@ def best_view(
     >>> bv.origin, bv.quality, bv.evaluations                         # doctest: +SKIP
     """
     check_measure(measure)
-    for name, v, lo in (
-        ("depth", depth, 0),
-        ("beam", beam, 1),
-        ("max_evaluations", max_evaluations, 1),
-    ):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-            kind = "non-negative" if lo == 0 else "positive"
-            raise ParameterError(f"{name} = {v!r}: must be a {kind} integer")
+    depth = check_arg("best_view", cli_param("best-view", "--depth"), depth)
+    res = check_arg("best_view", cli_param("best-view", "--res"), res)
+    for name, v in (("beam", beam), ("max_evaluations", max_evaluations)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ParameterError(f"{name} = {v!r}: must be a positive integer")
     scene = load_scene(scene)
     check_shapes(scene)
     view = viewing(scene, target, radius, res, fov, sensor, ignore, allow_below=allow_below)
