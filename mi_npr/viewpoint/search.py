@@ -229,7 +229,7 @@ def viewing(
     if not 0.0 < fov < 180.0:
         raise ParameterError(f"fov = {fov!r}: must be in (0, 180) degrees")
     size = idbuffer.image_size(res, aspect)
-    check_images(size[0], size[1], 6, "ID buffers")  # the largest batch (the first level)
+    check_images(size[0], size[1], 12, "ID buffers")  # the largest batch: 12 first-level midpoints
     polys = idbuffer.polygons(scene)
     ignore = (ignore,) if isinstance(ignore, str) else tuple(ignore)
     keep = _kept_columns(polys, ignore)  # checks the names first
