@@ -5,10 +5,10 @@ by a 640x480, 45 degree perspective sensor (so the ID buffers are 128 x 96).
 
 Cases, each counting the same per-polygon areas and computing the same measure:
 
-- ``best_view``: ``mi_npr.viewpoint.best_view(scene, measure, depth=4, res=128)``: 18
+- ``best_view``: ``best_view(scene, measure, depth=4, res=128, beam=1, allow_below=True)``: 18
   evaluations in 5 batched launches (6, then 3 per level).
 - ``quality_map``: ``mi_npr.viewpoint.quality_map(scene, measure, samples=256, res=128)``: 256
-  viewpoints in batched launches (what the quality-sphere picture costs).
+  viewpoints in batched launches (a dense sampling of the sphere, for plots).
 - ``loop`` (the anchor): the 18 viewpoints of the search, one ordinary Mitsuba ``perspective``
   sensor each (``lookat``), rendered through mi-npr's exact G-buffer pass
   (``mi_npr.render_gbuffer``, no beauty) and counted with ``numpy.bincount``: what a user
@@ -82,10 +82,12 @@ def _setup(case: str, measure: str, tmp: Path):
     mi, dr = mi_npr.mi, mi_npr.dr
     scene = _scene(tmp)
     if case == "best_view":
-        return lambda: best_view(scene, measure, depth=DEPTH, res=RES).evaluations
+        return lambda: (
+            best_view(scene, measure, depth=DEPTH, res=RES, beam=1, allow_below=True).evaluations
+        )
     if case == "quality_map":
         return lambda: len(quality_map(scene, measure, samples=SAMPLES, res=RES)[1])
-    ref = best_view(scene, measure, depth=DEPTH, res=RES)
+    ref = best_view(scene, measure, depth=DEPTH, res=RES, beam=1, allow_below=True)
     table = mi_npr.object_table(scene)
     n = sum(s.face_count() if s.is_mesh() else 1 for s in table.shapes.values())
     w, h = ref.size

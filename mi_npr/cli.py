@@ -13,6 +13,7 @@ import json
 import os
 import signal
 import sys
+import warnings
 from collections.abc import Sequence
 from importlib import metadata
 from pathlib import Path
@@ -298,8 +299,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument(
         "--depth",
         type=cli_type("best-view", "--depth"),
-        default=4,
-        help="subdivisions of the best triangle (4)",
+        default=3,
+        help="levels of subdivision of the viewing sphere's triangles (3)",
     )
     b.add_argument(
         "--res",
@@ -316,6 +317,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=[],
         metavar="OBJECT",
         help="an object whose pixels count as background, e.g. a floor (repeatable)",
+    )
+    b.add_argument(
+        "--allow-below",
+        action="store_true",
+        help="also rate viewpoints below the scene's ground (the side opposite its camera's up)",
+    )
+    b.add_argument(
+        "--no-sphere", action="store_true", help="do not draw the quality-sphere picture"
     )
     b.add_argument("--json", action="store_true", help="print the result as JSON")
     _memory_argument(b)
@@ -469,19 +478,26 @@ def _exit_code(results: list) -> int:
 def _cmd_best_view(args: argparse.Namespace) -> int:
     from .viewpoint import plots_missing, write_best_view
 
-    if why := plots_missing():
+    if not args.no_sphere and (why := plots_missing()):
         print(f"{PROG}: note: {why}: the quality sphere picture is skipped", file=sys.stderr)
-    best, outputs = write_best_view(
-        args.scene,
-        args.output,
-        args.measure,
-        args.depth,
-        args.res,
-        ignore=args.ignore,
-        defines=dict(args.defines),
-        resolution=_resolution(args),
-        spp=args.spp,
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        best, outputs = write_best_view(
+            args.scene,
+            args.output,
+            args.measure,
+            args.depth,
+            args.res,
+            ignore=args.ignore,
+            allow_below=args.allow_below,
+            sphere=not args.no_sphere,
+            defines=dict(args.defines),
+            resolution=_resolution(args),
+            spp=args.spp,
+        )
+    for w in caught:
+        if issubclass(w.category, UserWarning):
+            print(f"{PROG}: warning: {_t(w.message)}", file=sys.stderr)
     if args.json:
         info = {"scene": args.scene, **best.to_dict()}
         info["outputs"] = {k: str(v) for k, v in outputs.items()}

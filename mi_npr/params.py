@@ -231,7 +231,7 @@ CLI_PARAMS: dict[str, tuple[Param, ...]] = {
     "best-view": (
         *_SIZE,
         Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
-        Param("--depth", int, 4, "subdivisions", integer_range(0, MAX_VIEW_DEPTH)),
+        Param("--depth", int, 3, "levels of subdivision", integer_range(0, MAX_VIEW_DEPTH)),
         Param("--res", int, 128, "ID buffer long side", integer_range(1, MAX_RES)),
     ),
     "foliage": (

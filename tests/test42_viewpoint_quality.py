@@ -20,7 +20,7 @@ def hand_made(write_scene, tmp_path):
     analytic sphere hidden behind both: n = 4 polygons. Square camera, fov 90 (tan = 1)."""
     square = (
         np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32),
-        np.array([[0, 1, 2], [0, 2, 3]]),
+        np.array([[0, 2, 1], [0, 3, 2]]),  # wound to face -z, the camera (one-sided BSDF)
     )
     hidden = (np.array([[-0.2, -0.2, 1], [0.2, -0.2, 1], [0, 0.2, 1]], np.float32), [[0, 1, 2]])
     ply = write_ply(tmp_path / "hand.ply", *merge(square, hidden))

@@ -63,7 +63,7 @@ def test01_writes_a_sensor_that_reproduces_the_view(scene_path, tmp_path, capsys
         "toy_best_view.xml",
         "toy_quality_sphere.png",
     ]
-    assert info["evaluations"] == 12 and info["measure"] == measure
+    assert 12 < info["evaluations"] <= 40 and info["measure"] == measure
     assert info["res"] == [40, 30]
     assert set(info["outputs"]) == {"sensor", "render", "sphere"}
     # The file loads in Mitsuba on its own: one perspective sensor at the best view.

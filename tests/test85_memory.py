@@ -140,5 +140,5 @@ def test08_best_view_id_buffers_are_checked(tmp_path):
         "best-view", str(scene), "--measure", "pb", "-o", str(tmp_path / "o"),
         "--res", "20000", "--max-memory", "2G",
     )  # fmt: skip
-    assert r.returncode == 1 and "6 ID buffers of 20000 x 15000" in r.stderr, r.stderr
+    assert r.returncode == 1 and "12 ID buffers of 20000 x 15000" in r.stderr, r.stderr
     assert "(--max-memory)" in r.stderr

@@ -3,12 +3,13 @@
 - :mod:`~mi_npr.viewpoint.measures`: eqs. 1-3 as pure functions of per-polygon projected areas,
   and the angle defects of a mesh (eq. 2);
 - :mod:`~mi_npr.viewpoint.idbuffer`: the scene's polygons and the ID buffers of many viewpoints,
-  rendered and counted in one Dr.Jit launch;
+  rendered in one Dr.Jit launch and counted sparsely (one-sided back faces are background);
 - :mod:`~mi_npr.viewpoint.search`: :func:`quality`, :func:`best_view` (the 8 spherical
-  triangles and their recursive subdivision), :func:`quality_map`;
+  triangles, the allowed side of the up axis, the beam search), :func:`quality_map`;
 - :mod:`~mi_npr.viewpoint.camera`: the best view as a Mitsuba ``<sensor>`` and the picture of
   the viewing sphere coloured by quality (matplotlib, the ``plots`` extra);
-- :mod:`~mi_npr.viewpoint.outputs`: the files ``mi-npr best-view`` writes.
+- :mod:`~mi_npr.viewpoint.outputs`: the files ``mi-npr best-view`` writes, and the warning for
+  an empty or black best view.
 
 >>> bv = mi_npr.viewpoint.best_view("scenes_xml/scene4.xml", "entropy")  # doctest: +SKIP
 >>> mi_npr.viewpoint.sensor_xml(bv, scene)                               # doctest: +SKIP
@@ -17,14 +18,15 @@
 from __future__ import annotations
 
 from .camera import plots_missing, sensor_xml, sphere_image
-from .idbuffer import areas, polygons, view_frame
-from .measures import MEASURES, curvature, entropy, pb, vertex_curvature
-from .outputs import write_best_view
+from .idbuffer import areas, polygons, sparse_areas, view_frame
+from .measures import MEASURES, SparseAreas, curvature, entropy, pb, vertex_curvature
+from .outputs import view_warning, write_best_view
 from .search import BestView, best_view, fibonacci_sphere, qualities, quality, quality_map
 
 __all__ = [
     "MEASURES",
     "BestView",
+    "SparseAreas",
     "areas",
     "best_view",
     "curvature",
@@ -37,8 +39,10 @@ __all__ = [
     "quality",
     "quality_map",
     "sensor_xml",
+    "sparse_areas",
     "sphere_image",
     "vertex_curvature",
     "view_frame",
+    "view_warning",
     "write_best_view",
 ]

@@ -6,7 +6,9 @@ polygon covers), columns ``1..n`` are the scene's ``n`` polygons (see
 visible area from one viewpoint. Any leading shape is a batch of viewpoints, and every function
 returns one value per viewpoint (shape ``areas.shape[:-1]``). mi-npr fills ``areas`` with pixel
 counts of an ID buffer, so the row sum is the image area; the measures only use ratios of areas,
-so solid angles work as well.
+so solid angles work as well. The same table may come as a :class:`SparseAreas` (its cells that
+are not 0, what :func:`mi_npr.viewpoint.idbuffer.sparse_areas` gives for large scenes); every
+measure reads both and gives the same values.
 
 Choices made where the paper (or the text extracted from it) is ambiguous:
 
@@ -50,14 +52,62 @@ from ..errors import ParameterError
 TWO_PI = 2.0 * math.pi
 
 
-def _check(areas: np.ndarray) -> np.ndarray:
-    raw = np.asarray(areas)
-    a = raw.astype(np.float64, copy=False)
-    if a.ndim < 1 or a.shape[-1] < 1:
-        raise ParameterError(f"areas: expected shape (..., n + 1), got {a.shape}")
-    if raw.dtype.kind != "u" and (not np.all(np.isfinite(a)) or np.any(a < 0)):
-        raise ParameterError("areas: must be finite and non-negative")  # pixel counts always are
-    return a
+@dataclass(frozen=True)
+class SparseAreas:
+    """A ``(V, n + 1)`` area table stored as its cells that are not 0: ``values[k]`` is the
+    area of polygon ``cols[k]`` (0 = background) from viewpoint ``rows[k]``."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+    values: np.ndarray
+    shape: tuple[int, int]
+    #: per viewpoint, the part of column 0 that is one-sided faces seen from behind (not empty
+    #: space), where the ID buffers counted it
+    back: np.ndarray | None = None
+
+    @classmethod
+    def from_dense(cls, areas: np.ndarray) -> SparseAreas:
+        a = np.asarray(areas)
+        a2 = a.reshape(-1, a.shape[-1])
+        r, c = np.nonzero(a2)
+        return cls(r, c, a2[r, c], (len(a2), a.shape[-1]))
+
+    def dense(self) -> np.ndarray:
+        out = np.zeros(self.shape, np.asarray(self.values).dtype)
+        out[self.rows, self.cols] = self.values
+        return out
+
+    def merge(self, keep: np.ndarray) -> SparseAreas:
+        """The table with the columns where ``keep`` is False added to the background (column
+        0) and removed: ``(V, keep.sum())`` (``keep[0]`` must be True)."""
+        new = np.cumsum(keep) - 1
+        cols = np.where(keep[self.cols], new[self.cols], 0)
+        width = int(keep.sum())
+        cells, inv = np.unique(self.rows * width + cols, return_inverse=True)
+        vals = np.bincount(inv.ravel(), weights=self.values, minlength=len(cells))
+        return SparseAreas(cells // width, cells % width, vals, (self.shape[0], width), self.back)
+
+
+def _check(areas: np.ndarray | SparseAreas) -> tuple[SparseAreas, tuple[int, ...]]:
+    """The table as sparse float64 cells, and the leading (viewpoint) shape of the result."""
+    if isinstance(areas, SparseAreas):
+        sp = areas
+        lead: tuple[int, ...] = (sp.shape[0],)
+    else:
+        raw = np.asarray(areas)
+        a = raw.astype(np.float64, copy=False)
+        if a.ndim < 1 or a.shape[-1] < 1:
+            raise ParameterError(f"areas: expected shape (..., n + 1), got {a.shape}")
+        if raw.dtype.kind != "u" and (not np.all(np.isfinite(a)) or np.any(a < 0)):
+            raise ParameterError("areas: must be finite and non-negative")  # pixel counts are
+        sp, lead = SparseAreas.from_dense(a), a.shape[:-1]
+    vals = np.asarray(sp.values, np.float64)
+    return SparseAreas(sp.rows, sp.cols, vals, sp.shape), lead
+
+
+def _row_sums(sp: SparseAreas, where: np.ndarray | None = None) -> np.ndarray:
+    w = sp.values if where is None else np.where(where, sp.values, 0.0)
+    return np.bincount(sp.rows, weights=w, minlength=sp.shape[0]).astype(np.float64)
 
 
 def _fraction(numerator: np.ndarray, total: np.ndarray) -> np.ndarray:
@@ -65,25 +115,25 @@ def _fraction(numerator: np.ndarray, total: np.ndarray) -> np.ndarray:
     return np.divide(numerator, total, out=np.zeros_like(numerator), where=total > 0)
 
 
-def pb(areas: np.ndarray) -> np.ndarray:
+def pb(areas: np.ndarray | SparseAreas) -> np.ndarray:
     """Eq. 1 (Plemenos-Benayada): fraction of visible polygons + fraction of the image covered."""
-    a = _check(areas)
-    n = a.shape[-1] - 1
-    poly = a[..., 1:]
-    visible = np.count_nonzero(poly > 0, axis=-1).astype(np.float64)
+    sp, lead = _check(areas)
+    n = sp.shape[1] - 1
+    poly = (sp.cols > 0) & (sp.values > 0)
+    visible = np.bincount(sp.rows[poly], minlength=sp.shape[0]).astype(np.float64)
     first = visible / n if n else np.zeros_like(visible)
-    return first + _fraction(poly.sum(axis=-1), a.sum(axis=-1))
+    return (first + _fraction(_row_sums(sp, poly), _row_sums(sp))).reshape(lead)
 
 
-def entropy(areas: np.ndarray) -> np.ndarray:
+def entropy(areas: np.ndarray | SparseAreas) -> np.ndarray:
     """Eq. 3 (viewpoint entropy) in bits, background included as face 0."""
-    a = _check(areas)
-    rows2 = a.reshape(-1, a.shape[-1])
-    total = rows2.sum(axis=-1)
-    r, c = np.nonzero(rows2)  # only the faces in view: most of a large scene's are not
-    p = rows2[r, c] / total[r]
-    h = -np.bincount(r, weights=p * np.log2(p), minlength=len(rows2))
-    return h.reshape(a.shape[:-1]) + 0.0  # + 0.0: no -0.0
+    sp, lead = _check(areas)
+    total = _row_sums(sp)
+    ok = sp.values > 0  # only the faces in view: most of a large scene's are not
+    r = sp.rows[ok]
+    p = sp.values[ok] / total[r]
+    h = -np.bincount(r, weights=p * np.log2(p), minlength=sp.shape[0])
+    return h.reshape(lead) + 0.0  # + 0.0: no -0.0
 
 
 @dataclass(frozen=True)
@@ -149,28 +199,26 @@ def vertex_curvature(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return np.where(used, full - sums, 0.0), weld
 
 
-def curvature(areas: np.ndarray, topology: Topology) -> np.ndarray:
+def curvature(areas: np.ndarray | SparseAreas, topology: Topology) -> np.ndarray:
     """Eq. 2 (Sokolov): sum of ``|2 pi - sum alpha|`` over visible vertices x visible area."""
-    a = _check(areas)
-    n = a.shape[-1] - 1
+    sp, lead = _check(areas)
+    n = sp.shape[1] - 1
     if topology.n_polygons != n:
         raise ParameterError(
             f"areas has {n} polygons but the topology describes {topology.n_polygons}"
         )
-    lead = a.shape[:-1]
-    rows2 = a.reshape(-1, n + 1)
-    R = len(rows2)
+    R = sp.shape[0]
     nv = len(topology.vertex_term)
+    poly = (sp.cols > 0) & (sp.values > 0)
     seen = np.zeros(R)
     if nv:
-        rows, cols = np.nonzero(rows2[:, 1:] > 0)
-        verts = topology.polygon_vertices[cols + 1]  # (k, 3)
-        rr = np.repeat(rows, 3)
+        verts = topology.polygon_vertices[sp.cols[poly]]  # (k, 3)
+        rr = np.repeat(sp.rows[poly], 3)
         vv = verts.ravel()
         ok = vv >= 0
         keys = np.unique(rr[ok].astype(np.int64) * nv + vv[ok])  # each (view, vertex) once
         seen = np.bincount(keys // nv, weights=topology.vertex_term[keys % nv], minlength=R)
-    covered = _fraction(rows2[:, 1:].sum(axis=-1), rows2.sum(axis=-1))
+    covered = _fraction(_row_sums(sp, poly), _row_sums(sp))
     return (seen * covered).reshape(lead)
 
 

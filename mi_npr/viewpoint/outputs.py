@@ -5,13 +5,23 @@ The files, in ``outdir``: ``<stem>_best_view.xml`` (the best view as a Mitsuba s
 sensor, read back from the written file, with the scene's own integrator: what a user gets who
 puts the sensor in the scene) and ``<stem>_quality_sphere.png`` (the viewing sphere coloured by
 quality, :func:`~mi_npr.viewpoint.sphere_image`; the left disc faces the scene's own camera;
-skipped where matplotlib, the ``plots`` extra, is missing).
+skipped with ``sphere=False`` (``--no-sphere``) or where matplotlib, the ``plots`` extra, is
+missing). The picture costs no ray casting: it interpolates the qualities the search rated (plus
+``samples`` more viewpoints if asked) into a fixed 2 x 240 pixel image.
 Every file goes through :mod:`mi_npr.io` (temporary name, then rename).
+
+**An empty or black view.** After the render, :func:`view_warning` looks at it: more than
+:data:`EMPTY_FRACTION` of the best view's ID buffer background (no object hit, or a one-sided
+face seen from behind: the measures' rule; ignored objects are not empty), or a mean linear
+luminance of the rendered beauty under :data:`DARK_LUMINANCE`, gives a ``warnings.warn`` (the
+CLI prints it as one line on stderr): the measures rated what they could see, and the scene may
+need ``--allow-below``, ``--ignore`` or lights that reach the view.
 """
 
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -24,25 +34,47 @@ from ..errors import SceneError
 from ..params import check_arg, cli_param
 from ..render import render
 from ..scene import camera_of, load_scene, merge_defines, sensor_of
+from . import idbuffer
 from .camera import plots_missing, sensor_xml, sphere_image
 from .measures import check_measure
-from .search import BestView, check_shapes, sample_sphere, search, viewing
+from .search import BestView, Viewing, check_shapes, fibonacci_sphere, search, viewing
 
-#: Viewpoints rated for the quality sphere picture (Fibonacci lattice).
-SPHERE_SAMPLES = 256
+#: Extra viewpoints rated for the quality sphere picture (Fibonacci lattice, allowed side
+#: only): none by default, the search's own evaluations are drawn.
+SPHERE_SAMPLES = 0
+#: Bounds of :func:`view_warning`: the fraction of background pixels over which a view is
+#: "mostly empty", the mean linear luminance (Rec. 709) under which it is "black".
+EMPTY_FRACTION = 0.9
+DARK_LUMINANCE = 0.01
+
+
+def view_warning(empty: float, beauty: np.ndarray) -> str | None:
+    """Why a rendered best view is not worth looking at (module docstring), or ``None``.
+    ``empty``: the fraction of its pixels that are background; ``beauty`` (H, W, 3) linear RGB."""
+    rgb = np.asarray(beauty, np.float64)[..., :3]
+    lum = rgb @ np.array([0.2126, 0.7152, 0.0722]) if rgb.size else np.zeros(1)
+    mean = float(np.mean(np.nan_to_num(lum)))
+    why = []
+    if empty > EMPTY_FRACTION:
+        why.append(f"{100 * empty:.0f}% of it is background")
+    if mean < DARK_LUMINANCE:
+        why.append(f"its mean luminance is {mean:.3g}")
+    return " and ".join(why) if why else None
 
 
 def write_best_view(
     scene_path: str | os.PathLike[str],
     outdir: str | os.PathLike[str],
     measure: str,
-    depth: int = 4,
+    depth: int = 3,
     res: int = 128,
     *,
     stem: str | None = None,
     samples: int = SPHERE_SAMPLES,
     seed: int = 0,
     ignore: Sequence[str] = (),
+    allow_below: bool = False,
+    sphere: bool = True,
     defines: Mapping[str, Any] | None = None,
     resolution: tuple[int | None, int | None] | None = None,
     spp: int | None = None,
@@ -50,7 +82,9 @@ def write_best_view(
 ) -> tuple[BestView, dict[str, Path]]:
     """Search the best view of the XML scene and write the three files (module docstring).
 
-    ``ignore`` names objects whose pixels count as background (:func:`best_view`).
+    ``ignore`` names objects whose pixels count as background, ``allow_below`` lets viewpoints
+    below the scene's ground compete (:func:`best_view`); ``sphere=False`` skips the picture.
+    Warns (``warnings.warn``) when the best view's render is mostly empty or black.
     ``defines`` fill the XML's ``<default>``s (the written film is the film they give). Returns
     the :class:`BestView` and the written paths by kind (``sensor``, ``render``, ``sphere``;
     no ``sphere`` where :func:`~mi_npr.viewpoint.plots_missing` says why).
@@ -69,7 +103,7 @@ def write_best_view(
         raise SceneError(f"{scene_path}: {e}") from None
     d = io.check_writable_dir(outdir, create=True)
     stem = stem or Path(scene_path).stem
-    view = viewing(scene, res=res, ignore=ignore)
+    view = viewing(scene, res=res, ignore=ignore, allow_below=allow_below)
     best = search(scene, view, measure, depth)
     out: dict[str, Path] = {}
     with io.output_set():  # the XML and its PNGs together, or none of them
@@ -78,20 +112,41 @@ def write_best_view(
         out["sensor"] = io.write_text(d / f"{stem}_best_view.xml", text)
         gb = render(scene, sensor=sensor, seed=seed)
         out["render"] = io.write_png(d / f"{stem}_best_view.png", gb.beauty)
-        if plots_missing():  # the picture needs matplotlib (the plots extra): skipped
-            return best, out
-        dirs, q = sample_sphere(scene, view, measure, samples)
-        front = camera_of(sensor_of(scene)).origin - view.target if scene.sensors() else None
-        if front is not None and not np.any(front):
-            front = None
-        picture = sphere_image(
-            dirs,
-            q,
-            best.direction,
-            best.viewpoints - best.target,
-            front,
-            title=f"{stem}: {measure}, best {best.quality:.4g} (red), evaluated (white)",
-            labels=("seen from the scene's camera", "opposite side"),
+        ids = idbuffer.sparse_areas(
+            scene, [best.origin], best.target, best.fov, best.size, best.world_up, view.polygons
         )
-        out["sphere"] = io.write_png(d / f"{stem}_quality_sphere.png", picture, linear=False)
+        empty = float(ids.values[ids.cols == 0].sum() / max(ids.values.sum(), 1))
+        why = view_warning(empty, np.asarray(gb.beauty))
+        if sphere and not plots_missing():  # the picture needs matplotlib (the plots extra)
+            out["sphere"] = io.write_png(
+                d / f"{stem}_quality_sphere.png", _sphere_picture(scene, view, best, stem, samples),
+                linear=False,
+            )  # fmt: skip
+    if why:  # after the files are in place: a warning turned into an error keeps them
+        warnings.warn(f"{stem}: the best view ({measure}) is mostly empty or black: {why}",
+                      stacklevel=2)  # fmt: skip
     return best, out
+
+
+def _sphere_picture(
+    scene: mi.Scene, view: Viewing, best: BestView, stem: str, samples: int
+) -> np.ndarray:
+    """The quality sphere from the search's evaluations (and ``samples`` more viewpoints)."""
+    dirs, q = best.viewpoints - best.target, best.qualities
+    if samples:
+        extra = fibonacci_sphere(int(samples))
+        extra = extra[view.allowed(extra)]
+        dirs = np.concatenate([dirs, extra])
+        q = np.concatenate([q, view.qualities(scene, view.origins(extra), best.measure)])
+    front = camera_of(sensor_of(scene)).origin - view.target if scene.sensors() else None
+    if front is not None and not np.any(front):
+        front = None
+    return sphere_image(
+        dirs,
+        q,
+        best.direction,
+        best.viewpoints - best.target,
+        front,
+        title=f"{stem}: {best.measure}, best {best.quality:.4g} (red), evaluated (white)",
+        labels=("seen from the scene's camera", "opposite side"),
+    )
