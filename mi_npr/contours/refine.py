@@ -105,8 +105,8 @@ class Caster:
         """Ids (uint32) of pixels ``(x, y)``."""
         raise NotImplementedError
 
-    def guard_boxes(self) -> np.ndarray | None:
-        """(K, 4) pixel boxes ``x0, y0, x1, y1`` of objects that may hide between corner rays
+    def guard_boxes(self, macro: int = MACRO) -> np.ndarray | None:
+        """(K, 4) film-space boxes ``x0, y0, x1, y1`` of objects that may hide between corner rays
         (step 2), or ``None`` when unknown."""
         return None
 
@@ -149,11 +149,26 @@ class RayCaster(Caster):
         hits = cast(self.scene, ray, self.ids.table)
         return np.asarray(hits.ids(self.ids).numpy(), np.uint32).reshape(-1)
 
-    def guard_boxes(self) -> np.ndarray | None:
-        """Pixel boxes of the shapes (and components) from their projected bounding boxes."""
-        boxes = self.ids.boxes
+    def guard_boxes(self, macro: int = MACRO) -> np.ndarray | None:
+        """Pixel boxes of the shapes, and of the components of the meshes whose own box does
+        not already cover them: a mesh whose box is guarded whole, or lies off the image, needs
+        no component boxes (theirs lie inside its box, and project inside its projection)."""
+        uv, front = self._project(self.ids.shape_boxes())
+        if uv is None:
+            return None
+        _, _, small, off = pixel_rects(uv, self.grid.width, self.grid.height, macro)
+        covered = front & (small | off)
+        parts, _ = self.ids.part_boxes(np.flatnonzero(~covered) + 1)
+        puv, pfront = self._project(parts)
+        if puv is None:
+            return None
+        return np.concatenate([uv[front], puv[pfront]])
+
+    def _project(self, boxes: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+        """Film-space boxes (K, 4) ``u0, v0, u1, v1`` of world boxes (K, 2, 3), and which of
+        them lie wholly in front of the camera (the others cannot be projected)."""
         if len(boxes) == 0:
-            return np.zeros((0, 4))
+            return np.zeros((0, 4)), np.zeros(0, dtype=bool)
         sel = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
         corners = boxes[:, sel, [0, 1, 2]]  # (K, 8, 3)
         cam = camera_of(self.sensor)
@@ -167,10 +182,23 @@ class RayCaster(Caster):
         except Exception:  # no sample_direction (orthographic): parallel rays are affine
             uv = _affine_projection(self.sensor, corners.reshape(-1, 3))
             if uv is None:
-                return None
+                return None, np.zeros(0, dtype=bool)
         uv = uv.reshape(-1, 8, 2)
         front = (depth > cam.near_clip).all(axis=1) & np.isfinite(uv).all(axis=(1, 2))
-        return np.concatenate([uv.min(axis=1), uv.max(axis=1)], axis=1)[front]
+        return np.concatenate([uv.min(axis=1), uv.max(axis=1)], axis=1), front
+
+
+def pixel_rects(
+    boxes: np.ndarray, width: int, height: int, macro: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Step 2's pixel rectangles of film-space boxes (K, 4): ``lo``, ``hi`` (K, 2) inclusive
+    pixel corners, one pixel of margin, clipped to the image; ``small`` where at most two macro
+    pixels wide or tall (guarded); ``off`` where nothing is left after clipping."""
+    lo = np.maximum(np.floor(boxes[:, :2]) - 1, 0)
+    hi = np.minimum(np.ceil(boxes[:, 2:]) + 1, [width - 1, height - 1])
+    off = (hi < lo).any(axis=1)
+    small = ((hi - lo) <= 2 * macro).any(axis=1) & ~off
+    return lo, hi, small, off
 
 
 def _affine_projection(sensor: mi.Sensor, points: np.ndarray) -> np.ndarray | None:
@@ -241,17 +269,21 @@ def _halves(a0: np.ndarray, a1: np.ndarray, split: np.ndarray, *rest: np.ndarray
 def guard_pixels(caster: Caster, macro: int = MACRO) -> np.ndarray:
     """Step 2: cast every pixel of the boxes of objects that can hide between corner rays."""
     g = caster.grid
-    boxes = caster.guard_boxes()
+    boxes = caster.guard_boxes(macro)
     if boxes is None or len(boxes) == 0:
         return np.zeros(0, np.int64)
-    lo = np.maximum(np.floor(boxes[:, :2]) - 1, 0)
-    hi = np.minimum(np.ceil(boxes[:, 2:]) + 1, [g.width - 1, g.height - 1])
-    small = ((hi - lo) <= 2 * macro).any(axis=1) & (hi >= lo).all(axis=1)
-    idx = [np.zeros(0, np.int64)]
-    for (x0, y0), (x1, y1) in zip(lo[small].astype(int), hi[small].astype(int), strict=True):
-        yy, xx = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]
-        idx.append(g.index(xx.ravel(), yy.ravel()))
-    return caster.cast(np.concatenate(idx))
+    lo, hi, small, _ = pixel_rects(boxes, g.width, g.height, macro)
+    return caster.cast(g.index(*rect_pixels(lo[small], hi[small])))
+
+
+def rect_pixels(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every pixel ``(x, y)`` of the inclusive rectangles ``lo``..``hi`` ((K, 2) each)."""
+    lo, hi = np.asarray(lo, np.int64).reshape(-1, 2), np.asarray(hi, np.int64).reshape(-1, 2)
+    bw, bh = (hi - lo + 1).T
+    n = bw * bh
+    box = np.repeat(np.arange(len(n)), n)
+    k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    return lo[box, 0] + k % bw[box], lo[box, 1] + k // bw[box]
 
 
 def follow(caster: Caster, new: np.ndarray) -> None:
