@@ -10,7 +10,14 @@ import mi_npr
 from mi_npr.contours import trace, trace_scene
 from mi_npr.contours.idmode import id_map
 from mi_npr.contours.parts import clear_cache, components, mesh_parts, weld_keys
-from mi_npr.contours.refine import MACRO, RayCaster, pixel_rects, rect_pixels, run
+from mi_npr.contours.refine import (
+    MACRO,
+    BufferCaster,
+    RayCaster,
+    pixel_rects,
+    rect_pixels,
+    run,
+)
 from mi_npr.meshes import box, face_components, merge, uv_sphere, write_ply
 
 from .helpers import SCENES
@@ -111,7 +118,7 @@ def test03_parts_are_cached_per_mesh_and_checked(tmp_path):
 
 def _brute_guard_pixels(caster):
     """Every shape's and every component's box projected (no skipping), as pixel indices."""
-    boxes = caster.ids.boxes
+    boxes = caster.id_map.boxes
     uv, front = caster._project(boxes)
     g = caster.grid
     lo, hi, small, _ = pixel_rects(uv[front], g.width, g.height, MACRO)
@@ -136,7 +143,7 @@ def test04_guard_skips_only_covered_components(tmp_path):
     lo, hi, small, _ = pixel_rects(boxes, g.width, g.height, MACRO)
     got = set(g.index(*rect_pixels(lo[small], hi[small])).tolist())
     assert got == _brute_guard_pixels(caster)
-    assert len(boxes) < len(caster.ids.boxes)  # something was skipped
+    assert len(boxes) < len(caster.id_map.boxes)  # something was skipped
 
 
 def test05_rect_pixels():
@@ -173,3 +180,116 @@ def test06_ids_and_contours_equal_buffer_mode(name, id_mode):
     for method in ("border", "code_direction"):
         again, _ = trace_scene(scene, id_mode=id_mode, method=method)
         assert again == trace(ids, objects=names, method=method)
+
+
+# ----------------------------------------------------------------------------- the numpy reference
+def _reference_cast(ids, boxes=None, macro=MACRO):
+    """The numpy bookkeeping trace_scene had before it moved to Dr.Jit (steps 1-3 on an id
+    buffer): the pixels it cast, the batches and the following rounds."""
+    h, w = ids.shape
+    s = w + 2
+    pid = np.full((h + 2, s), 0xFFFFFFFF, np.uint32)
+    pid[1:-1, 1:-1] = ids
+    pid = pid.reshape(-1)
+    known = np.ones((h + 2, s), bool)
+    known[1:-1, 1:-1] = False
+    known = known.reshape(-1)
+    count = {"launches": 0, "rounds": 0}
+
+    def index(x, y):
+        return (np.asarray(y, np.int64) + 1) * s + np.asarray(x, np.int64) + 1
+
+    def cast(idx):
+        idx = np.unique(np.asarray(idx, np.int64).reshape(-1))
+        idx = idx[~known[idx]]
+        known[idx] = True
+        count["launches"] += len(idx) > 0
+        return idx
+
+    def points(n):
+        return np.unique(np.r_[np.arange(0, n, macro), n - 1])
+
+    def halves(a0, a1, split, *rest):
+        out = [[] for _ in range(2 + len(rest))]
+        for i in range(len(a0)):
+            mid = (a0[i] + a1[i]) // 2
+            for lo, hi in ((a0[i], mid), (mid, a1[i])) if split[i] else ((a0[i], a1[i]),):
+                for k, v in enumerate((lo, hi, *(r[i] for r in rest))):
+                    out[k].append(v)
+        return [np.asarray(o, np.int64) for o in out]
+
+    xs, ys = points(w), points(h)
+    gx, gy = np.meshgrid(xs, ys)
+    done = [cast(index(gx, gy))]
+    x0, x1 = (xs[:-1], xs[1:]) if len(xs) > 1 else (xs, xs)
+    y0, y1 = (ys[:-1], ys[1:]) if len(ys) > 1 else (ys, ys)
+    bx0, by0 = (a.ravel() for a in np.meshgrid(x0, y0))
+    bx1, by1 = (a.ravel() for a in np.meshgrid(x1, y1))
+    while len(bx0):
+        c = [pid[index(x, y)] for x, y in ((bx0, by0), (bx1, by0), (bx0, by1), (bx1, by1))]
+        differ = (c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])
+        sx, sy = (bx1 - bx0) > 1, (by1 - by0) > 1
+        keep = differ & (sx | sy)
+        bx0, bx1, by0, by1, sx, sy = (a[keep] for a in (bx0, bx1, by0, by1, sx, sy))
+        bx0, bx1, by0, by1, sy = halves(bx0, bx1, sx, by0, by1, sy)
+        by0, by1, bx0, bx1 = halves(by0, by1, sy.astype(bool), bx0, bx1)
+        if len(bx0) == 0:
+            break
+        done.append(cast(index(np.r_[bx0, bx1, bx0, bx1], np.r_[by0, by0, by1, by1])))
+    if boxes is not None and len(boxes):
+        lo, hi, small, _ = pixel_rects(boxes, w, h, macro)
+        box = [np.zeros(0, np.int64)]  # one batch for all boxes
+        for (a, b), (c_, d) in zip(lo[small].astype(int), hi[small].astype(int), strict=True):
+            yy, xx = np.mgrid[b : d + 1, a : c_ + 1]
+            box.append(index(xx, yy).ravel())
+        done.append(cast(np.concatenate(box)))
+    new = np.concatenate(done)
+    off = np.array([1, s, -1, -s])
+    while len(new):
+        need = []
+        for p in new:
+            for d in range(4):
+                q = p + off[d]
+                if not known[q] or pid[q] == pid[p]:
+                    continue
+                cracks = [(p, d)] if pid[p] != 0 else []
+                if pid[q] not in (0, 0xFFFFFFFF):
+                    cracks.append((q, (d + 2) & 3))
+                for cp, cs in cracks:
+                    t = off[(cs + 1) & 3]
+                    need += [cp + t, cp + t + off[cs], cp - t, cp - t + off[cs]]
+        new = cast(need)
+        count["rounds"] += 1
+    return known.reshape(h + 2, s)[1:-1, 1:-1], count
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test07_same_pixels_as_the_numpy_bookkeeping(seed):
+    """Without a scene (an id buffer): the same pixels cast, batches and rounds as before."""
+    rng = np.random.default_rng(seed)
+    h, w = (int(v) for v in rng.integers(1, 60, 2))
+    yy, xx = np.mgrid[0:h, 0:w]
+    ids = np.zeros((h, w), np.uint32)
+    for k in range(1, 6):
+        cy, cx, r = rng.uniform(0, h), rng.uniform(0, w), rng.uniform(0.5, 15)
+        ids[(yy - cy) ** 2 + (xx - cx) ** 2 < r * r] = k
+    caster = BufferCaster(ids)
+    got, stats = run(caster, None, guard=False)
+    cast, count = _reference_cast(ids)
+    np.testing.assert_array_equal(stats.cast, cast)
+    assert stats.rays_cast == cast.sum()
+    assert (stats.launches, stats.rounds) == (count["launches"], count["rounds"])
+    assert got == [c for c in trace(ids) if cast[c.points[0][1], c.points[0][0]]]
+
+
+@pytest.mark.parametrize("name", ["scene1", "scene3"])
+def test08_scene_same_pixels_as_the_numpy_bookkeeping(name):
+    scene = mi_npr.load_scene(SCENES / f"{name}.xml", width=120, height=90, spp=1)
+    ids, names = _buffer(scene, "shape")
+    session = mi_npr.session.SceneSession.open(scene)
+    caster = RayCaster(scene, session.sensor, id_map(scene, "shape", session.objects))
+    boxes = caster.guard_boxes(MACRO)
+    _, stats = run(caster, names)
+    cast, count = _reference_cast(ids, boxes)
+    np.testing.assert_array_equal(stats.cast, cast)
+    assert (stats.launches, stats.rounds) == (count["launches"], count["rounds"])
