@@ -105,10 +105,11 @@ class Caster:
         assert empty.known is not None
         self.ids = mi.UInt32(empty.ids)  # padded ids; the ring is OUTSIDE
         self.known = mi.Bool(empty.known)  # the ring is known
-        self._claim = dr.zeros(mi.UInt32, len(empty.ids))  # one lane per pixel (cast_jit)
+        self._claim = dr.empty(mi.UInt32, len(empty.ids))  # one lane per pixel (cast_jit)
         s = self.stride
         self.offsets = mi.UInt32(np.array([1, s, -1, -s], np.int64).astype(np.uint32))
         self._grid: Grid | None = None
+        self._cast: list[mi.UInt32] = []  # the pixels computed, one array per batch
         self.stats = TraceStats(width, height)
 
     def compute_jit(self, pix: mi.UInt32) -> mi.UInt32:
@@ -131,28 +132,61 @@ class Caster:
 
     def cast_jit(self, pix: mi.UInt32, active: mi.Bool | bool = True) -> mi.UInt32:
         """Compute the unknown pixels among flat padded indices ``pix`` (active lanes; repeats
-        allowed) in one batch; returns the distinct pixels computed. Repeats are removed by a
-        scatter of lane numbers into one slot per pixel: the lane whose number stays casts."""
-        width = dr.width(pix)
-        if width == 0:
+        allowed) in one batch; returns the distinct pixels computed."""
+        if dr.width(pix) == 0:
             return mi.UInt32()
-        active = mi.Bool(active)
-        need = active & ~dr.gather(mi.Bool, self.known, pix, active)
-        lane = dr.arange(mi.UInt32, width)
-        dr.scatter(self._claim, lane, pix, need)
-        win = need & (dr.gather(mi.UInt32, self._claim, pix, need) == lane)
-        sel = dr.compress(win)
-        n = dr.width(sel)
+        new = self._unknown(pix, mi.Bool(active))
+        n = dr.width(new)
         if n == 0:
-            return sel
-        new = dr.gather(mi.UInt32, pix, sel)
+            return new
+        # Nothing else refers to ids / known now: the scatters write in place (no copy).
         dr.scatter(self.ids, self.compute_jit(new), new)
         dr.scatter(self.known, True, new)
         dr.eval(self.ids, self.known)
         self._grid = None
+        self._cast.append(new)
         self.stats.rays_cast += n
         self.stats.launches += 1
         return new
+
+    def _unknown(self, pix: mi.UInt32, active: mi.Bool) -> mi.UInt32:
+        """The distinct unknown pixels among the active ``pix``: a scatter of lane numbers
+        into one slot per pixel, and the lane whose number stays is the one that casts."""
+        need = active & ~dr.gather(mi.Bool, self.known, pix, active)
+        lane = dr.arange(mi.UInt32, dr.width(pix))
+        dr.scatter(self._claim, lane, pix, need)
+        win = need & (dr.gather(mi.UInt32, self._claim, pix, need) == lane)
+        new = dr.gather(mi.UInt32, pix, dr.compress(win))
+        dr.eval(new)
+        return new
+
+    def cast_so_far(self) -> mi.UInt32:
+        """Every pixel computed so far (flat padded indices, each once)."""
+        if not self._cast:
+            return mi.UInt32()
+        if len(self._cast) > 1:
+            self._cast = [dr.concat(self._cast)]
+        return self._cast[0]
+
+    def cracks(self) -> tuple[np.ndarray, np.ndarray]:
+        """The cracks among the pixels computed so far (:func:`~mi_npr.contours.trace.cycles`'s
+        partial-grid rule: an object pixel and a known 4-neighbour of another id), as numpy
+        ``(pixel, side)`` sorted by ``pixel * 4 + side``; found in Dr.Jit, sorted in numpy."""
+        U = mi.UInt32
+        done = self.cast_so_far()
+        if dr.width(done) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        lane = dr.arange(U, 4 * dr.width(done))
+        p = dr.gather(U, done, lane >> 2)
+        q = p + dr.gather(U, self.offsets, lane & 3)
+        k = dr.gather(U, self.ids, p)
+        crack = (k != 0) & dr.gather(mi.Bool, self.known, q) & (dr.gather(U, self.ids, q) != k)
+        sel = dr.compress(crack)
+        if dr.width(sel) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        key = dr.gather(U, done, sel >> 2) * 4 + (sel & 3)
+        key = np.sort(np.asarray(key.numpy(), np.int64))
+        return key >> 2, key & 3
 
     @property
     def grid(self) -> Grid:
@@ -291,36 +325,50 @@ def refine(caster: Caster, macro: int = MACRO) -> None:
     y0, y1 = (ys[:-1], ys[1:]) if len(ys) > 1 else (ys, ys)
     bx0, by0 = (mi.UInt32(a.ravel().astype(np.uint32)) for a in np.meshgrid(x0, y0))
     bx1, by1 = (mi.UInt32(a.ravel().astype(np.uint32)) for a in np.meshgrid(x1, y1))
-    U = mi.UInt32
     while dr.width(bx0):
-        ids = caster.ids
-        c = [
-            dr.gather(U, ids, caster.index(x, y))
-            for x, y in ((bx0, by0), (bx1, by0), (bx0, by1), (bx1, by1))
-        ]
-        differ = (c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])
-        sx, sy = (bx1 - bx0) > 1, (by1 - by0) > 1
-        keep = differ & (sx | sy)
-        dr.eval(keep, sx, sy)
-        # Each kept block splits in two along each axis longer than one pixel step.
-        lane = dr.arange(U, 4 * dr.width(bx0))
-        b, kx, ky = lane >> 2, (lane & 1) != 0, (lane & 2) != 0
-        bsx, bsy = dr.gather(mi.Bool, sx, b), dr.gather(mi.Bool, sy, b)
-        sel = dr.compress(dr.gather(mi.Bool, keep, b) & (~kx | bsx) & (~ky | bsy))
-        if dr.width(sel) == 0:
+        bx0, bx1, by0, by1 = _split(caster, bx0, bx1, by0, by1)
+        if dr.width(bx0) == 0:
             break
-        b, kx, ky = sel >> 2, (sel & 1) != 0, (sel & 2) != 0
-        X0, X1, Y0, Y1 = (dr.gather(U, a, b) for a in (bx0, bx1, by0, by1))
-        bsx, bsy = dr.gather(mi.Bool, sx, b), dr.gather(mi.Bool, sy, b)
-        mx, my = (X0 + X1) >> 1, (Y0 + Y1) >> 1
-        bx0, bx1 = dr.select(kx, mx, X0), dr.select(bsx & ~kx, mx, X1)
-        by0, by1 = dr.select(ky, my, Y0), dr.select(bsy & ~ky, my, Y1)
-        dr.eval(bx0, bx1, by0, by1)
-        corner = dr.arange(U, 4 * dr.width(bx0))
+        corner = dr.arange(mi.UInt32, 4 * dr.width(bx0))
         blk = corner >> 2
-        px = dr.select((corner & 1) != 0, dr.gather(U, bx1, blk), dr.gather(U, bx0, blk))
-        py = dr.select((corner & 2) != 0, dr.gather(U, by1, blk), dr.gather(U, by0, blk))
+        px = dr.select(
+            (corner & 1) != 0, dr.gather(mi.UInt32, bx1, blk), dr.gather(mi.UInt32, bx0, blk)
+        )
+        py = dr.select(
+            (corner & 2) != 0, dr.gather(mi.UInt32, by1, blk), dr.gather(mi.UInt32, by0, blk)
+        )
         caster.cast_jit(caster.index(px, py))
+
+
+def _split(caster: Caster, bx0: Any, bx1: Any, by0: Any, by1: Any) -> tuple[Any, Any, Any, Any]:
+    """The child blocks of one refinement level (evaluated): a block whose four corners differ
+    splits in two along each axis longer than one pixel step."""
+    U = mi.UInt32
+    c = [
+        dr.gather(U, caster.ids, caster.index(x, y))
+        for x, y in ((bx0, by0), (bx1, by0), (bx0, by1), (bx1, by1))
+    ]
+    sx, sy = (bx1 - bx0) > 1, (by1 - by0) > 1
+    keep = ((c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])) & (sx | sy)
+    dr.eval(keep, sx, sy)
+    lane = dr.arange(U, 4 * dr.width(bx0))
+    b, kx, ky = lane >> 2, (lane & 1) != 0, (lane & 2) != 0
+    bsx, bsy = dr.gather(mi.Bool, sx, b), dr.gather(mi.Bool, sy, b)
+    sel = dr.compress(dr.gather(mi.Bool, keep, b) & (~kx | bsx) & (~ky | bsy))
+    if dr.width(sel) == 0:
+        return U(), U(), U(), U()
+    b, kx, ky = sel >> 2, (sel & 1) != 0, (sel & 2) != 0
+    X0, X1, Y0, Y1 = (dr.gather(U, a, b) for a in (bx0, bx1, by0, by1))
+    bsx, bsy = dr.gather(mi.Bool, sx, b), dr.gather(mi.Bool, sy, b)
+    mx, my = (X0 + X1) >> 1, (Y0 + Y1) >> 1
+    out = (
+        dr.select(kx, mx, X0),
+        dr.select(bsx & ~kx, mx, X1),
+        dr.select(ky, my, Y0),
+        dr.select(bsy & ~ky, my, Y1),
+    )
+    dr.eval(out)
+    return out
 
 
 def guard_pixels(caster: Caster, macro: int = MACRO) -> None:
@@ -347,35 +395,41 @@ def follow(caster: Caster) -> None:
     Each round looks at the pixels cast last (first: every pixel known), in Dr.Jit: 8 lanes per
     pixel (4 sides, the crack on this pixel's side or on the neighbour's), the cracks that exist
     are compressed, and each asks for its 4 pixels in one batch."""
+    new = caster.cast_so_far()
+    while dr.width(new):
+        need = _crack_needs(caster, new)
+        new = caster.cast_jit(need) if need is not None else mi.UInt32()
+        caster.stats.rounds += 1
+
+
+def _crack_needs(caster: Caster, new: mi.UInt32) -> mi.UInt32 | None:
+    """The pixels ahead of and behind the cracks of pixels ``new`` (repeats, known ones
+    included); ``None`` when they have no crack."""
     U = mi.UInt32
     out = int(OUTSIDE)
     offs = caster.offsets
-    new = dr.compress(caster.known & (caster.ids != out))
-    while dr.width(new):
-        ids, known = caster.ids, caster.known
-        lane = dr.arange(U, 8 * dr.width(new))
-        p = dr.gather(U, new, lane >> 3)
-        d = (lane >> 1) & 3
-        q = p + dr.gather(U, offs, d)
-        idp, idq = dr.gather(U, ids, p), dr.gather(U, ids, q)
-        ok = dr.gather(mi.Bool, known, q) & (idq != idp)
-        theirs = (lane & 1) != 0  # the crack of the neighbour q, on its side d + 2
-        exists = ok & dr.select(theirs, (idq != 0) & (idq != out), idp != 0)
-        sel = dr.compress(exists)
-        if dr.width(sel) == 0:
-            break
-        theirs, d = (sel & 1) != 0, (sel >> 1) & 3
-        p = dr.gather(U, new, sel >> 3)
-        crack = dr.select(theirs, p + dr.gather(U, offs, d), p)
-        side = dr.select(theirs, (d + 2) & 3, d)
-        dr.eval(crack, side)
-        k = dr.arange(U, 4 * dr.width(crack))
-        c, s = dr.gather(U, crack, k >> 2), dr.gather(U, side, k >> 2)
-        t = dr.gather(U, offs, (s + 1) & 3)
-        base = dr.select((k & 2) == 0, c + t, c - t)  # ahead, behind
-        need = dr.select((k & 1) != 0, base + dr.gather(U, offs, s), base)
-        new = caster.cast_jit(need)
-        caster.stats.rounds += 1
+    lane = dr.arange(U, 8 * dr.width(new))
+    p = dr.gather(U, new, lane >> 3)
+    d = (lane >> 1) & 3
+    q = p + dr.gather(U, offs, d)
+    idp, idq = dr.gather(U, caster.ids, p), dr.gather(U, caster.ids, q)
+    ok = dr.gather(mi.Bool, caster.known, q) & (idq != idp)
+    theirs = (lane & 1) != 0  # the crack of the neighbour q, on its side d + 2
+    sel = dr.compress(ok & dr.select(theirs, (idq != 0) & (idq != out), idp != 0))
+    if dr.width(sel) == 0:
+        return None
+    theirs, d = (sel & 1) != 0, (sel >> 1) & 3
+    p = dr.gather(U, new, sel >> 3)
+    crack = dr.select(theirs, p + dr.gather(U, offs, d), p)
+    side = dr.select(theirs, (d + 2) & 3, d)
+    dr.eval(crack, side)
+    k = dr.arange(U, 4 * dr.width(crack))
+    c, s = dr.gather(U, crack, k >> 2), dr.gather(U, side, k >> 2)
+    t = dr.gather(U, offs, (s + 1) & 3)
+    base = dr.select((k & 2) == 0, c + t, c - t)  # ahead, behind
+    need = dr.select((k & 1) != 0, base + dr.gather(U, offs, s), base)
+    dr.eval(need)
+    return need
 
 
 def trace_scene(
@@ -448,7 +502,7 @@ def run(
     stats.times["follow"] = t3 - t2
     g = caster.grid  # the one read-back of the cache
     contours = contours_from_grid(
-        g, names, method, fetch=lambda need: caster.cast(np.asarray(need))
+        g, names, method, fetch=lambda need: caster.cast(np.asarray(need)), cracks=caster.cracks()
     )
     stats.times["trace"] = time.perf_counter() - t3
     stats.contours = len(contours)

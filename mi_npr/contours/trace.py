@@ -237,13 +237,15 @@ def _jump_distance(succ: np.ndarray, is_rep: np.ndarray) -> np.ndarray:
         nxt = nxt[nxt]
 
 
-def cycles(grid: Grid) -> Cycles:
+def cycles(grid: Grid, cracks: tuple[np.ndarray, np.ndarray] | None = None) -> Cycles:
     """Every closed contour of ``grid`` (all objects) as crack cycles (see module docstring).
 
     With a partial grid (``known`` set), only cracks whose two pixels are known take part: the
     caller guarantees that the successors of those cracks are known too (ray-cast mode's closure).
+    ``cracks``: the grid's cracks ``(pixel, side)`` sorted by ``pixel * 4 + side``, when the
+    caller has them already (ray-cast mode finds them in Dr.Jit); else they are found here.
     """
-    pix, side = _cracks(grid)
+    pix, side = _cracks(grid) if cracks is None else cracks
     n = len(pix)
     if n == 0:
         z = np.zeros(0, np.int64)
@@ -391,10 +393,12 @@ def contours_from_grid(
     method: str,
     fetch: Callable[[list[int]], None] | None = None,
     only: Iterable[int] | None = None,
+    cracks: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> list[Contour]:
     """The contours of a (complete or closed partial) grid; ``fetch`` serves code-direction walks
-    that leave the known pixels (ray-cast mode). Sorted by object id, then start pixel."""
-    cyc = cycles(grid)
+    that leave the known pixels (ray-cast mode); ``cracks`` as :func:`cycles` takes them. Sorted
+    by object id, then start pixel."""
+    cyc = cycles(grid, cracks)
     order = np.argsort(cyc.object_id, kind="stable")
     if only is not None:
         wanted = np.asarray(sorted(set(int(v) for v in only)), dtype=np.int64)
