@@ -30,7 +30,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError
-from ..scene import ObjectTable, object_table, shape_bbox
+from ..scene import ObjectTable, object_table
 from .parts import mesh_parts
 
 ID_MODES = ("shape", "primitive", "component")
@@ -83,7 +83,10 @@ class IdMap:
 
     def shape_boxes(self) -> np.ndarray:
         """(N, 2, 3) world bounding box of each shape, in object id order (ids 1..N)."""
-        boxes = [shape_bbox(self.table.shapes[sid]) for sid in range(1, len(self.table) + 1)]
+        boxes = []
+        for sid in range(1, len(self.table) + 1):
+            bb = self.table.shapes[sid].bbox()  # as shape_bbox, ~10x faster per shape
+            boxes.append((*bb.min, *bb.max))
         return np.asarray(boxes, np.float64).reshape(-1, 2, 3)
 
     def part_boxes(self, sids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
