@@ -396,30 +396,36 @@ def follow(caster: Caster) -> None:
     pixel (4 sides, the crack on this pixel's side or on the neighbour's), the cracks that exist
     are compressed, and each asks for its 4 pixels in one batch."""
     new = caster.cast_so_far()
+    first = True
     while dr.width(new):
-        need = _crack_needs(caster, new)
+        # First round: every known pixel is in ``new``, so a neighbour's crack is its own.
+        need = _crack_needs(caster, new, both=not first)
+        first = False
         new = caster.cast_jit(need) if need is not None else mi.UInt32()
         caster.stats.rounds += 1
 
 
-def _crack_needs(caster: Caster, new: mi.UInt32) -> mi.UInt32 | None:
+def _crack_needs(caster: Caster, new: mi.UInt32, both: bool = True) -> mi.UInt32 | None:
     """The pixels ahead of and behind the cracks of pixels ``new`` (repeats, known ones
-    included); ``None`` when they have no crack."""
+    included); ``None`` when they have no crack. ``both``: also the cracks of their neighbours
+    on the sides facing them (else only the cracks on the pixels' own sides)."""
     U = mi.UInt32
     out = int(OUTSIDE)
     offs = caster.offsets
-    lane = dr.arange(U, 8 * dr.width(new))
-    p = dr.gather(U, new, lane >> 3)
-    d = (lane >> 1) & 3
+    shift = 3 if both else 2  # lanes per pixel: 4 sides (x 2 with the neighbours' cracks)
+    lane = dr.arange(U, dr.width(new) << shift)
+    p = dr.gather(U, new, lane >> shift)
+    d = (lane >> (shift - 2)) & 3
     q = p + dr.gather(U, offs, d)
     idp, idq = dr.gather(U, caster.ids, p), dr.gather(U, caster.ids, q)
     ok = dr.gather(mi.Bool, caster.known, q) & (idq != idp)
-    theirs = (lane & 1) != 0  # the crack of the neighbour q, on its side d + 2
+    theirs = ((lane & 1) != 0) if both else mi.Bool(False)  # q's crack, on its side d + 2
     sel = dr.compress(ok & dr.select(theirs, (idq != 0) & (idq != out), idp != 0))
     if dr.width(sel) == 0:
         return None
-    theirs, d = (sel & 1) != 0, (sel >> 1) & 3
-    p = dr.gather(U, new, sel >> 3)
+    theirs = ((sel & 1) != 0) if both else mi.Bool(False)
+    d = (sel >> (shift - 2)) & 3
+    p = dr.gather(U, new, sel >> shift)
     crack = dr.select(theirs, p + dr.gather(U, offs, d), p)
     side = dr.select(theirs, (d + 2) & 3, d)
     dr.eval(crack, side)
