@@ -21,9 +21,10 @@ an 8-connected piece of an object and a 4-connected region around or inside it (
 holes). Because every crack lies on exactly one cycle, the union of an object's contours is its
 contour-pixel set *exactly*, every piece (split by an occluder, touching the image border, seen
 through a gap, a single pixel) and every hole has its own contour, and each contour is an
-8-connected chain. The cycles are found without a per-pixel loop: pointer jumping labels each
-cycle by its first crack in raster order and ranks every crack along it (``O(n log n)`` numpy work
-for ``n`` cracks), then consecutive cracks on the same pixel collapse into one point. A contour
+8-connected chain. The cycles are found without a per-pixel Python loop: the successor graph's
+connected components (scipy) label each cycle by its first crack in raster order, a depth-first
+walk from a root joined to those first cracks lists every cycle in order (linear time for ``n``
+cracks), then consecutive cracks on the same pixel collapse into one point. A contour
 starts at its first pixel in raster order (like OpenCV's) and runs clockwise on screen for outer
 borders, counter-clockwise around holes; ``is_hole`` comes from the sign of the area it encloses.
 
@@ -64,6 +65,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components, depth_first_order
 
 from ..errors import ParameterError
 from ..gbuffer import GBuffer, to_numpy
@@ -214,27 +217,29 @@ def _successor(grid: Grid, pix: np.ndarray, side: np.ndarray) -> np.ndarray:
     )
 
 
-def _jump_min(val: np.ndarray, succ: np.ndarray) -> np.ndarray:
-    """The minimum of ``val`` over each cycle of the permutation ``succ`` (pointer jumping)."""
-    lab, nxt = val.copy(), succ.copy()
-    while True:
-        np.minimum(lab, lab[nxt], out=lab)
-        nxt = nxt[nxt]
-        if np.array_equal(lab, lab[succ]):
-            return lab
+def _cycle_min(val: np.ndarray, succ: np.ndarray) -> np.ndarray:
+    """The minimum of ``val`` over each cycle of the permutation ``succ``: the cycles are the
+    connected components of the graph ``i -> succ[i]`` (scipy, linear time)."""
+    n = len(succ)
+    graph = csr_matrix((np.ones(n, np.int8), (np.arange(n), succ)), shape=(n, n))
+    count, label = connected_components(graph, directed=True, connection="weak")
+    low = np.full(count, np.iinfo(np.int64).max)
+    np.minimum.at(low, label, val)
+    return low[label]
 
 
-def _jump_distance(succ: np.ndarray, is_rep: np.ndarray) -> np.ndarray:
-    """Steps from each element forward to its cycle's representative (pointer jumping)."""
-    idx = np.arange(len(succ))
-    nxt = np.where(is_rep, idx, succ)
-    dist = (~is_rep).astype(np.int64)
-    while True:
-        done = is_rep[nxt]
-        if done.all():
-            return dist
-        dist = dist + dist[nxt]
-        nxt = nxt[nxt]
+def _cycle_order(succ: np.ndarray, is_rep: np.ndarray, reps: np.ndarray) -> np.ndarray:
+    """All elements, cycle after cycle in the order of ``reps`` (each cycle's representative,
+    ascending), each cycle from its representative along ``succ``: the depth-first order from a
+    root joined to every representative, in the graph ``i -> succ[i]`` cut before each
+    representative (every chain is then walked whole before the next one starts)."""
+    n = len(succ)
+    keep = ~is_rep[succ]
+    rows = np.concatenate([np.flatnonzero(keep), np.full(len(reps), n)])
+    cols = np.concatenate([succ[keep], reps])
+    graph = csr_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(n + 1, n + 1))
+    graph.sort_indices()
+    return depth_first_order(graph, n, directed=True, return_predecessors=False)[1:]
 
 
 def cycles(grid: Grid, cracks: tuple[np.ndarray, np.ndarray] | None = None) -> Cycles:
@@ -251,26 +256,25 @@ def cycles(grid: Grid, cracks: tuple[np.ndarray, np.ndarray] | None = None) -> C
         z = np.zeros(0, np.int64)
         return Cycles(z, z, z.astype(bool), np.zeros(1, np.int64), np.zeros((0, 2), np.int32))
     keys = pix * 4 + side  # sorted
-    succ = np.searchsorted(keys, _successor(grid, pix, side))
+    # Successor keys -> crack indices through a table over all keys (only the cracks' entries
+    # are written and read: np.empty touches no other page), ~20x faster than searchsorted.
+    slot = np.empty(len(grid.ids) * 4, np.int64)
+    slot[keys] = np.arange(n)
+    succ = slot[_successor(grid, pix, side)]
     pred = np.empty(n, np.int64)
     pred[succ] = np.arange(n)
     # A contour starts at its first crack in raster order that begins a run of cracks on one
     # pixel, so that no pixel's run is split between the end and the start of the chain.
     idx = np.arange(n, dtype=np.int64)
     run_start = pix[pred] != pix
-    rep = _jump_min(np.where(run_start, idx, idx + n), succ)
+    rep = _cycle_min(np.where(run_start, idx, idx + n), succ)
     rep = np.where(rep >= n, rep - n, rep)
     is_rep = rep == idx
     reps = np.flatnonzero(is_rep)
     cyc_of = np.empty(n, np.int64)
     cyc_of[reps] = np.arange(len(reps))
     cyc = cyc_of[rep]
-    length = np.bincount(cyc, minlength=len(reps))
-    dist = _jump_distance(succ, is_rep)
-    pos = (length[cyc] - dist) % length[cyc]
-    first = np.concatenate([[0], np.cumsum(length)[:-1]])
-    seq = np.empty(n, np.int64)
-    seq[first[cyc] + pos] = idx
+    seq = _cycle_order(succ, is_rep, reps)
     pix_seq, cyc_seq = pix[seq], cyc[seq]
     keep = np.ones(n, dtype=bool)
     keep[1:] = (pix_seq[1:] != pix_seq[:-1]) | (cyc_seq[1:] != cyc_seq[:-1])
