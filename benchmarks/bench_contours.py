@@ -181,6 +181,24 @@ def measure_warm(fn, repeat: int) -> float:
     return statistics.median(times)
 
 
+def measure_paired(ours, anchor, repeat: int) -> dict:
+    """``ours`` and ``anchor`` run alternately (the machine's load hits both alike): the median
+    of the per-pair ratios, and the ratio of the two minima."""
+    ours(), anchor()
+    a, b = [], []
+    for _ in range(repeat):
+        for fn, out in ((ours, a), (anchor, b)):
+            t0 = time.perf_counter()
+            fn()
+            out.append((time.perf_counter() - t0) * 1e3)
+    return {
+        "ours_min_ms": min(a),
+        "anchor_min_ms": min(b),
+        "median_ratio": statistics.median(x / y for x, y in zip(a, b, strict=True)),
+        "min_ratio": min(a) / min(b),
+    }
+
+
 def ray_details(name: str, w: int, h: int, repeat: int) -> dict:
     """Rays cast, contours and the warm per-stage times of ray-cast mode."""
     import mi_npr
@@ -224,6 +242,9 @@ def main() -> int:
             if not args.quick:
                 res[case]["cold_ms"] = measure_cold(case, name, w, h)
         res["rays"] = ray_details(name, w, h, repeat)
+        res["paired_trace_scene_vs_gbuffer"] = measure_paired(
+            _setup("trace_scene", name, w, h), _setup("gbuffer", name, w, h), repeat
+        )
         modes = ["warm_ms"] if args.quick else ["warm_ms", "cold_ms"]
         pairs = [("trace_scene", "id_buffer"), ("trace_scene", "gbuffer")]
         if name != MESHES:
@@ -239,6 +260,11 @@ def main() -> int:
             print(f"  {case:<22}{res[case]['warm_ms']:>10.2f}{cold:>10.1f}")
         for key in [k for k in res if k.startswith("ratio_")]:
             print(f"  {key:<38}{res[key]:>8.2f}")
+        p = res["paired_trace_scene_vs_gbuffer"]
+        print(
+            f"  trace_scene / gbuffer, run alternately: median ratio {p['median_ratio']:.2f}, "
+            f"minima {p['ours_min_ms']:.2f} / {p['anchor_min_ms']:.2f} ms = {p['min_ratio']:.2f}"
+        )
         r = res["rays"]
         print(
             f"  rays cast {r['rays_cast']} = {100 * r['ray_fraction']:.1f}% of W*H "

@@ -17,7 +17,10 @@ from them; both cast rays on demand instead of rendering an ID buffer. :func:`tr
    box (clipped to the image) is cast, in one batch. Its cost is proportional to the small
    objects' screen area. Boxes are projected with the sensor's ``sample_direction``, or along
    the parallel rays of an orthographic camera; objects whose box crosses the camera plane,
-   and other sensors without ``sample_direction``, are not guarded.
+   and other sensors without ``sample_direction``, are not guarded. A mesh's component boxes
+   are projected only where its own box does not already cover them (a guarded box, or one
+   off the image, holds theirs); the components of all meshes are found in one vectorised
+   pass and kept per mesh (:mod:`mi_npr.contours.parts`), so a scene's later calls reuse them.
 3. **Following** (section 3.2). Every pair of 4-adjacent known pixels with different ids is a crack
    of a contour (see :mod:`mi_npr.contours.trace`); the follower needs, for each crack, the two
    pixels ahead of it (and, to grow in both directions at once, the two behind it). Those are cast
@@ -43,6 +46,24 @@ and random sphere scenes for equality with buffer mode; the notebook counts the 
 Every ray is the pixel-centre ray of the G-buffer pass, cast by :func:`mi_npr.raycast.cast`
 (same rays, same intersection, same id lookup), so the ids equal the ``object_id`` layer's and
 each pixel's id is cast at most once (a cache of known pixels).
+
+**Batches in Dr.Jit.** The cache is two Dr.Jit arrays over the padded grid of
+:class:`~mi_npr.contours.trace.Grid` (``ids``, and ``known``: the outside ring is known), and
+every batch is built, deduplicated and cast without leaving Dr.Jit (:meth:`Caster.cast_jit`):
+the candidate pixels of a batch are a ``UInt32`` array with repeats; those not known yet scatter
+their lane number into a per-pixel slot and the lane whose number stays is the one that casts
+(one lane per pixel), ``dr.compress`` lists them, :func:`~mi_npr.raycast.cast` intersects
+their rays, and two scatters fill the cache. A refinement level is the blocks of the level as
+``UInt32`` arrays: each block gives four child lanes, and the children that exist (the block's
+corners differ, and it is longer than one pixel step along that axis) are compressed; their
+corners are the next batch. A following round takes the pixels cast last, 8 lanes each (the
+cracks on its four sides and on its neighbours' sides facing it; 4 in the first round, when
+every known pixel is in it), compresses the cracks that exist and asks for their 4 pixels each.
+Host synchronisations are the ``dr.compress`` calls (two per level and per round, ~20 us
+each); the cost follows the number of pixels a batch looks at, not the image size. The cracks
+of the final partial map are found in Dr.Jit too, and the cache is read back once for the
+contour tracer (:func:`~mi_npr.contours.trace.contours_from_grid`, numpy and scipy); the paper's
+walk (``method="code_direction"``) may still ask for more pixels, cast the same way.
 """
 
 from __future__ import annotations
