@@ -177,9 +177,7 @@ class Caster:
         lane = dr.arange(mi.UInt32, dr.width(pix))
         dr.scatter(self._claim, lane, pix, need)
         win = need & (dr.gather(mi.UInt32, self._claim, pix, need) == lane)
-        new = dr.gather(mi.UInt32, pix, dr.compress(win))
-        dr.eval(new)
-        return new
+        return dr.gather(mi.UInt32, pix, dr.compress(win))  # evaluated with the cast
 
     def cast_so_far(self) -> mi.UInt32:
         """Every pixel computed so far (flat padded indices, each once)."""
@@ -363,30 +361,29 @@ def refine(caster: Caster, macro: int = MACRO) -> None:
 
 def _split(caster: Caster, bx0: Any, bx1: Any, by0: Any, by1: Any) -> tuple[Any, Any, Any, Any]:
     """The child blocks of one refinement level (evaluated): a block whose four corners differ
-    splits in two along each axis longer than one pixel step."""
+    splits in two along each axis longer than one pixel step. Four lanes per block, one per
+    possible child; the ones that exist are compressed."""
     U = mi.UInt32
-    c = [
-        dr.gather(U, caster.ids, caster.index(x, y))
-        for x, y in ((bx0, by0), (bx1, by0), (bx0, by1), (bx1, by1))
-    ]
-    sx, sy = (bx1 - bx0) > 1, (by1 - by0) > 1
-    keep = ((c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])) & (sx | sy)
-    dr.eval(keep, sx, sy)
     lane = dr.arange(U, 4 * dr.width(bx0))
     b, kx, ky = lane >> 2, (lane & 1) != 0, (lane & 2) != 0
-    bsx, bsy = dr.gather(mi.Bool, sx, b), dr.gather(mi.Bool, sy, b)
-    sel = dr.compress(dr.gather(mi.Bool, keep, b) & (~kx | bsx) & (~ky | bsy))
+    X0, X1, Y0, Y1 = (dr.gather(U, a, b) for a in (bx0, bx1, by0, by1))
+    c = [
+        dr.gather(U, caster.ids, caster.index(x, y))
+        for x, y in ((X0, Y0), (X1, Y0), (X0, Y1), (X1, Y1))
+    ]
+    sx, sy = (X1 - X0) > 1, (Y1 - Y0) > 1
+    keep = ((c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])) & (sx | sy)
+    sel = dr.compress(keep & (~kx | sx) & (~ky | sy))
     if dr.width(sel) == 0:
         return U(), U(), U(), U()
     b, kx, ky = sel >> 2, (sel & 1) != 0, (sel & 2) != 0
     X0, X1, Y0, Y1 = (dr.gather(U, a, b) for a in (bx0, bx1, by0, by1))
-    bsx, bsy = dr.gather(mi.Bool, sx, b), dr.gather(mi.Bool, sy, b)
     mx, my = (X0 + X1) >> 1, (Y0 + Y1) >> 1
     out = (
         dr.select(kx, mx, X0),
-        dr.select(bsx & ~kx, mx, X1),
+        dr.select(((X1 - X0) > 1) & ~kx, mx, X1),
         dr.select(ky, my, Y0),
-        dr.select(bsy & ~ky, my, Y1),
+        dr.select(((Y1 - Y0) > 1) & ~ky, my, Y1),
     )
     dr.eval(out)
     return out
