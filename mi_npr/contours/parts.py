@@ -18,6 +18,7 @@ moved inside the same box) would keep stale parts, which only the guard's boxes 
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -44,11 +45,13 @@ class Parts:
 
 
 _CACHE: OrderedDict[int, tuple[mi.Shape, tuple, Parts]] = OrderedDict()
+_LOCK = threading.Lock()
 
 
 def clear_cache() -> None:
     """Forget every mesh's parts (they are recomputed on next use)."""
-    _CACHE.clear()
+    with _LOCK:
+        _CACHE.clear()
 
 
 def _key(shape: mi.Shape) -> tuple:
@@ -69,23 +72,25 @@ def mesh_parts(shapes: Sequence[mi.Shape]) -> list[Parts]:
     out: list[Parts | None] = [None] * len(shapes)
     todo: list[int] = []
     keys: list[tuple] = []
-    for i, shape in enumerate(shapes):
-        key = _key(shape)
-        hit = _CACHE.get(id(shape))
-        if hit is not None and hit[0] is shape and hit[1] == key:
-            _CACHE.move_to_end(id(shape))
-            out[i] = hit[2]
-        else:
-            todo.append(i)
-            keys.append(key)
+    with _LOCK:
+        for i, shape in enumerate(shapes):
+            key = _key(shape)
+            hit = _CACHE.get(id(shape))
+            if hit is not None and hit[0] is shape and hit[1] == key:
+                _CACHE.move_to_end(id(shape))
+                out[i] = hit[2]
+            else:
+                todo.append(i)
+                keys.append(key)
     if todo:
         fresh = components([mesh_arrays(shapes[i]) for i in todo])
-        for i, key, parts in zip(todo, keys, fresh, strict=True):
-            out[i] = parts
-            _CACHE[id(shapes[i])] = (shapes[i], key, parts)
-            _CACHE.move_to_end(id(shapes[i]))
-        while len(_CACHE) > CACHE_SIZE:
-            _CACHE.popitem(last=False)
+        with _LOCK:
+            for i, key, parts in zip(todo, keys, fresh, strict=True):
+                out[i] = parts
+                _CACHE[id(shapes[i])] = (shapes[i], key, parts)
+                _CACHE.move_to_end(id(shapes[i]))
+            while len(_CACHE) > CACHE_SIZE:
+                _CACHE.popitem(last=False)
     return out  # type: ignore[return-value]
 
 
