@@ -156,6 +156,7 @@ class Caster:
         allowed) in one batch; returns the distinct pixels computed."""
         if dr.width(pix) == 0:
             return mi.UInt32()
+        dr.eval(pix)  # what follows is then the same kernels for every caller (compiled once)
         new = self._unknown(pix, mi.Bool(active))
         n = dr.width(new)
         if n == 0:
