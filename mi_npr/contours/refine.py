@@ -442,19 +442,16 @@ def _crack_needs(caster: Caster, new: mi.UInt32, both: bool = True) -> mi.UInt32
     sel = dr.compress(ok & dr.select(theirs, (idq != 0) & (idq != out), idp != 0))
     if dr.width(sel) == 0:
         return None
-    theirs = ((sel & 1) != 0) if both else mi.Bool(False)
-    d = (sel >> (shift - 2)) & 3
-    p = dr.gather(U, new, sel >> shift)
+    k = dr.arange(U, 4 * dr.width(sel))  # 4 lanes per crack: ahead, ahead + side, behind, ...
+    c = dr.gather(U, sel, k >> 2)
+    theirs = ((c & 1) != 0) if both else mi.Bool(False)
+    d = (c >> (shift - 2)) & 3
+    p = dr.gather(U, new, c >> shift)
     crack = dr.select(theirs, p + dr.gather(U, offs, d), p)
     side = dr.select(theirs, (d + 2) & 3, d)
-    dr.eval(crack, side)
-    k = dr.arange(U, 4 * dr.width(crack))
-    c, s = dr.gather(U, crack, k >> 2), dr.gather(U, side, k >> 2)
-    t = dr.gather(U, offs, (s + 1) & 3)
-    base = dr.select((k & 2) == 0, c + t, c - t)  # ahead, behind
-    need = dr.select((k & 1) != 0, base + dr.gather(U, offs, s), base)
-    dr.eval(need)
-    return need
+    t = dr.gather(U, offs, (side + 1) & 3)
+    base = dr.select((k & 2) == 0, crack + t, crack - t)  # ahead, behind
+    return dr.select((k & 1) != 0, base + dr.gather(U, offs, side), base)
 
 
 def trace_scene(
