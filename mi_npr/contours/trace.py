@@ -221,7 +221,7 @@ def _cycle_min(val: np.ndarray, succ: np.ndarray) -> np.ndarray:
     """The minimum of ``val`` over each cycle of the permutation ``succ``: the cycles are the
     connected components of the graph ``i -> succ[i]`` (scipy, linear time)."""
     n = len(succ)
-    graph = csr_matrix((np.ones(n, np.int8), (np.arange(n), succ)), shape=(n, n))
+    graph = csr_matrix((np.ones(n, np.int8), succ, np.arange(n + 1)), shape=(n, n))
     count, label = connected_components(graph, directed=True, connection="weak")
     low = np.full(count, np.iinfo(np.int64).max)
     np.minimum.at(low, label, val)
@@ -235,10 +235,9 @@ def _cycle_order(succ: np.ndarray, is_rep: np.ndarray, reps: np.ndarray) -> np.n
     representative (every chain is then walked whole before the next one starts)."""
     n = len(succ)
     keep = ~is_rep[succ]
-    rows = np.concatenate([np.flatnonzero(keep), np.full(len(reps), n)])
-    cols = np.concatenate([succ[keep], reps])
-    graph = csr_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(n + 1, n + 1))
-    graph.sort_indices()
+    indptr = np.concatenate([[0], np.cumsum(keep), [keep.sum() + len(reps)]])
+    cols = np.concatenate([succ[keep], reps])  # one edge per row, then the root's (ascending)
+    graph = csr_matrix((np.ones(len(cols), np.int8), cols, indptr), shape=(n + 1, n + 1))
     return depth_first_order(graph, n, directed=True, return_predecessors=False)[1:]
 
 
