@@ -1,7 +1,7 @@
 """Apparent contours at 640x480 on scenes 1-4: buffer mode against OpenCV, ray-cast mode against a
 full ID buffer, cold and warm, in the same run.
 
-Buffer mode: ``mi_npr.contours.trace(ids)`` on the G-buffer's ``object_id`` (every contour of
+Buffer mode: ``mi_npr.contours.trace(ids)`` on the G-buffer's ``object_id.V`` (every contour of
 every object), against ``cv2.findContours`` (``RETR_LIST``, ``CHAIN_APPROX_NONE``) on each
 object's zero-padded mask, timed twice: masks prepared beforehand (``cv2``) and masks built in the
 timed call (``cv2_masks``, what a user of OpenCV pays). Also the paper's walk
@@ -141,7 +141,7 @@ def _setup(case: str, name: str, w: int, h: int):
             return ids.numpy()
 
         return full
-    ids = np.asarray(mi_npr.render_gbuffer(scene)["object_id"]).copy()
+    ids = np.asarray(mi_npr.render_gbuffer(scene)["object_id.V"]).copy()
     if case == "trace":
         return lambda: mi_npr.contours.trace(ids)
     if case == "trace_code_direction":

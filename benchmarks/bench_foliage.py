@@ -168,8 +168,8 @@ def measure_warm(work: Path, spp: int, repeat: int) -> dict:
         "render_warm_ms": statistics.median(times["ours"]),
         "anchor_direct_warm_ms": statistics.median(times["anchor"]),
         "lines_only_warm_ms": statistics.median(times["lines_only"]),
-        "line_pixels": int((gb["lines"] > 0.5).sum()),
-        "leaf_pixels": int((gb["leaf_id"] > 0).sum()),
+        "line_pixels": int((gb["lines.V"] > 0.5).sum()),
+        "leaf_pixels": int((gb["leaf_id.V"] > 0).sum()),
     }
 
 

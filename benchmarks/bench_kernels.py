@@ -7,7 +7,7 @@ removal (eq. 5.2) -> max with 1-px object-ID edges. Ours is
 OpenCV where it has the operation
 (``cv2.minMaxLoc``, ``cv2.blur``, ``cv2.dilate``, ``cv2.erode``, ``cv2.boxFilter``) and numpy for
 the rest (the neighbour count of eq. 5.4 has no OpenCV primitive). Both start from the same numpy
-``Z`` and ``object_id`` layers: ``scene3.xml``'s G-buffer rendered at 640x480 and 3840x2160.
+``Z`` and ``object_id.V`` layers: ``scene3.xml``'s G-buffer rendered at 640x480 and 3840x2160.
 
 warm: median (and minimum) of ``--repeat`` runs after one warm-up, in this process, the two cases
 alternating run by run (so both see the same load on a shared machine), both on
@@ -95,7 +95,7 @@ def _setup(case: str, data: Path, w: int, h: int, threads: int):
 
     dr = mi_npr.dr
     dr.set_thread_count(threads)
-    gb = {"Z": Z, "object_id": ids}
+    gb = {"Z": Z, "object_id.V": ids}
 
     def run():
         out = mi_npr.kernels.lines(gb, id_edges=True)
@@ -166,9 +166,9 @@ def render_inputs(data: Path, sizes: list[tuple[int, int]]) -> dict:
         scene = mi_npr.load_scene(SCENE, width=w, height=h, spp=1)
         gb = mi_npr.render_gbuffer(scene)
         np.save(data / f"Z_{w}x{h}.npy", gb["Z"])
-        np.save(data / f"id_{w}x{h}.npy", gb["object_id"])
+        np.save(data / f"id_{w}x{h}.npy", gb["object_id.V"])
         ours = np.asarray(mi_npr.kernels.lines(gb, id_edges=True))
-        anchor = opencv_lines(gb["Z"], gb["object_id"])
+        anchor = opencv_lines(gb["Z"], gb["object_id.V"])
         agree[f"{w}x{h}"] = {
             "max_abs_diff": float(np.abs(ours - anchor).max()),
             "pixels_differing": int(np.count_nonzero(np.abs(ours - anchor) > 1e-5)),

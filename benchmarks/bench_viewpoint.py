@@ -109,7 +109,7 @@ def _setup(case: str, measure: str, tmp: Path):
         topo = mi_npr.viewpoint.polygons(scene).topology() if measure == "curvature" else None
         for s in sensors:
             gb = mi_npr.render_gbuffer(scene, s)
-            poly = np.where(gb["object_id"] > 0, gb["prim_id"].astype(np.int64) + 1, 0)
+            poly = np.where(gb["object_id.V"] > 0, gb["prim_id.V"].astype(np.int64) + 1, 0)
             a = np.bincount(poly.ravel(), minlength=n + 1)
             measures.MEASURES[measure](a, topo)
         dr.sync_thread()

@@ -46,8 +46,8 @@ def gbuffer_panel() -> Path:
         (mi_npr.io.to_rgb8(gb.beauty), "R G B (nested path tracer)", {}),
         (z, "Z", {"cmap": "magma_r"}),
         (np.clip(gb.normals * 0.5 + 0.5, 0, 1), "N.X N.Y N.Z", {}),
-        (gb["object_id"], "object_id", {"cmap": "tab10", "interpolation": "nearest"}),
-        (gb["prim_id"] % 7, "prim_id (mod 7)", {"cmap": "viridis", "interpolation": "nearest"}),
+        (gb["object_id.V"], "object_id.V", {"cmap": "tab10", "interpolation": "nearest"}),
+        (gb["prim_id.V"] % 7, "prim_id (mod 7)", {"cmap": "viridis", "interpolation": "nearest"}),
         (np.clip(np.abs(gb.positions) / 4, 0, 1), "|P.X P.Y P.Z| / 4", {}),
     ]
     return _figure(panels, "gbuffer_scene1.png", (2, 3), (12, 6.2), 80)
@@ -61,7 +61,7 @@ def lines_panel() -> Path:
     panels = [
         (mi_npr.io.to_rgb8(gb.beauty), "R G B (npr_lines, defaults)"),
         (1.0 - depth, "depth contours only (eq. 5.1)", gray),
-        (1.0 - gb["lines"], "lines (defaults: + boundaries + creases, 3x3 AA)", gray),
+        (1.0 - gb["lines.V"], "lines (defaults: + boundaries + creases, 3x3 AA)", gray),
     ]
     return _figure(panels, "lines_scene4.png", (1, 3), (15, 4.3), 100)
 
@@ -99,7 +99,7 @@ def foliage_panel() -> Path:
         gb = mi_npr.render(
             ROOT / "scenes_xml" / "foliage_large_leaves.xml", width=res, height=res, abstraction=a
         )
-        leaf = (gb["leaf_id"] > 0)[..., None]
+        leaf = (gb["leaf_id.V"] > 0)[..., None]
         panels.append((np.where(leaf, gb.normals * 0.5 + 0.5, 1.0)[crop], f"N, abstraction {a:g}"))
     return _figure(panels, "foliage_styles.png", (1, len(panels)), (3.0 * len(panels), 2.6), 80)
 
@@ -119,6 +119,74 @@ def overview_panel() -> Path:
     return _figure(panels, "overview_scene1.png", (1, 3), (15, 3.9), 80)
 
 
+def _browser_screenshot(svg: Path, png: Path, size: tuple[int, int]) -> np.ndarray:
+    """``svg`` as a headless Chromium renders it (``apt-get install chromium``)."""
+    import shutil
+    import subprocess
+
+    from PIL import Image
+
+    exe = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("chrome")
+    if exe is None:
+        raise SystemExit("the svg figure needs a headless browser: apt-get install chromium")
+    subprocess.run(
+        [
+            exe,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            f"--window-size={size[0]},{size[1]}",
+            f"--screenshot={png}",
+            svg.as_uri(),
+        ],
+        check=True,
+        capture_output=True,
+        timeout=120,
+    )
+    return np.asarray(Image.open(png).convert("RGB"))
+
+
+def svg_panel() -> Path:
+    """The SVG of ``mi-npr contours`` on scene 1 as a browser shows it, and a zoom on one sphere's
+    edge: the path's vertices on the true outline against the old pixel-centre chain."""
+    import re
+    import tempfile
+
+    w, h = 320, 240
+    gb, contours, paths, _ = mi_npr.contours.render_vector_contours(
+        ROOT / "scenes_xml" / "scene1.xml", width=w, height=h, spp=64
+    )
+    beauty = mi_npr.compose.raw_beauty(gb)
+    full = mi_npr.io.svg_document(paths, w, h, beauty=beauty)
+    full = full.replace(f'width="{w}" height="{h}" viewBox', 'width="640" height="480" viewBox')
+    # the zoom: 24 x 18 pixels on the left sphere's upper-left rim, thin strokes, with the
+    # pixel-centre chain of the same contour in blue for comparison
+    left = next(c for c in contours if c.name == "sphere_left")
+    old = mi_npr.io.svg_document([left], w, h, color=(0.0, 0.2, 1.0), stroke_width=0.06)
+    old_layer = old[old.index('<g id="contours"') : old.rindex("</svg>")]
+    old_layer = old_layer.replace('id="contours"', 'id="pixel-centres"', 1)
+    old_layer = re.sub(r'id="sphere_left"', 'id="sphere_left-pixels"', old_layer)
+    zoom = mi_npr.io.svg_document(paths, w, h, beauty=beauty, stroke_width=0.08)
+    zoom = zoom.replace("</svg>", old_layer + "</svg>")
+    x0, y0 = int(left.points[:, 0].min()) + 2, int(left.points[:, 1].min()) + 4
+    zoom = zoom.replace(
+        f'width="{w}" height="{h}" viewBox="0 0 {w} {h}"',
+        f'width="640" height="480" viewBox="{x0} {y0} 24 18"',
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        shots = []
+        for name, text in (("full", full), ("zoom", zoom)):
+            svg = Path(tmp) / f"{name}.svg"
+            svg.write_text(text)
+            shots.append(_browser_screenshot(svg, Path(tmp) / f"{name}.png", (640, 480)))
+    panels = [
+        (shots[0], "scene1_contours.svg in Chromium (vector paths over the embedded beauty)"),
+        (shots[1], "zoom: red, the sphere's and the wall's paths; blue, pixel centres"),
+    ]
+    return _figure(panels, "svg_scene1.png", (1, 2), (13, 5.1), 80)
+
+
 PANELS = {
     "overview": overview_panel,
     "gbuffer": gbuffer_panel,
@@ -126,6 +194,7 @@ PANELS = {
     "contours": contours_panel,
     "raytree": raytree_panel,
     "foliage": foliage_panel,
+    "svg": svg_panel,
 }
 
 if __name__ == "__main__":

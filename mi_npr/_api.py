@@ -7,7 +7,14 @@ import mitsuba as mi
 
 from . import _llvm, _variant, layers
 from ._variant import DEFAULT_VARIANT, register_plugins, set_variant
-from .errors import InputError, NprError, OutputError, ParameterError, SceneError
+from .errors import (
+    InputError,
+    MemoryLimitError,
+    NprError,
+    OutputError,
+    ParameterError,
+    SceneError,
+)
 from .gbuffer import Camera, GBuffer
 
 #: Why the requested variant could not be activated at import (the ``mi-npr`` command only,
@@ -26,7 +33,7 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import contours, foliage, io, kernels, raytree, viewpoint  # noqa: E402
+from . import contours, cryptomatte, data, foliage, io, kernels, raytree, viewpoint  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -35,12 +42,15 @@ __all__ = [
     "Camera",
     "GBuffer",
     "InputError",
+    "MemoryLimitError",
     "NprError",
     "OutputError",
     "ParameterError",
     "SceneError",
     "camera_of",
     "contours",
+    "cryptomatte",
+    "data",
     "dr",
     "foliage",
     "io",

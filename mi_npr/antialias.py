@@ -38,7 +38,7 @@ import numpy as np
 
 from . import layers as L
 from .errors import ParameterError
-from .gbuffer import GBuffer, to_numpy
+from .gbuffer import GBuffer
 from .kernels import LINES_PARAMS, lines
 from .kernels.chain import fade
 from .kernels.ink import MAX_WIDTH
@@ -81,31 +81,46 @@ def supersampled_gbuffer(scene: mi.Scene, sensor: mi.Sensor, n: int) -> GBuffer:
         x, y = film_grid(W, H)
         out = channels(scene, sensor, pixel_rays(sensor, x / n, y / n), table, shade=False)
         dr.eval(*out.values())
-    layers = {k: to_numpy(out[k]).reshape(H, W) for k in L.GBUFFER_AOVS}
+    TF, TU = mi.TensorXf, mi.TensorXu
+    layers = {
+        k: (TU if isinstance(out[k], mi.UInt32) else TF)(out[k], shape=(H, W))
+        for k in L.GBUFFER_AOVS
+    }
     return GBuffer(layers, table.names, camera_of(sensor))
 
 
-def box_filter(image: Any, n: int) -> np.ndarray:
-    """The mean of every ``n x n`` block of an ``(n H, n W)`` image: ``(H, W)`` float32."""
-    a = np.asarray(image, dtype=np.float32)
-    if a.ndim != 2 or a.shape[0] % n or a.shape[1] % n:
-        raise ParameterError(f"box_filter: shape {a.shape} is not a multiple of {n}")
-    h, w = a.shape[0] // n, a.shape[1] // n
-    return a.reshape(h, n, w, n).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
+def box_filter(image: Any, n: int) -> Any:
+    """The mean of every ``n x n`` block of an ``(n H, n W)`` image (a tensor or an array): an
+    ``(H, W)`` float32 tensor, computed in Dr.Jit (each pixel's block gathered contiguously,
+    then one block sum)."""
+    if dr.is_tensor_v(image) and dr.is_jit_v(image):
+        shape, v = tuple(int(s) for s in image.shape), mi.Float(image.array)
+    else:
+        a = np.asarray(image, dtype=np.float32)
+        shape, v = a.shape, mi.Float(np.ascontiguousarray(a).reshape(-1))
+    if len(shape) != 2 or shape[0] % n or shape[1] % n:
+        raise ParameterError(f"box_filter: shape {shape} is not a multiple of {n}")
+    h, w = shape[0] // n, shape[1] // n
+    k = dr.arange(mi.UInt32, h * w * n * n)
+    p, j = k // (n * n), k % (n * n)  # output pixel, sample within its block
+    src = ((p // w) * n + j // n) * shape[1] + (p % w) * n + j % n
+    mean = dr.block_sum(dr.gather(mi.Float, v, src), n * n) * (1.0 / (n * n))
+    return mi.TensorXf(mean, shape=(h, w))
 
 
 def antialiased_lines(
     scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer, n: int, **params: Any
-) -> np.ndarray:
-    """The ``lines`` layer with ``n x n`` rays per pixel (module docstring); ``n = 1`` is
-    :func:`mi_npr.kernels.lines` on ``gb`` itself. ``gb`` is the film-resolution G-buffer
-    (for ``bright_fade``); ``params`` are those of :data:`~mi_npr.kernels.LINES_PARAMS`."""
+) -> Any:
+    """The ``lines`` layer (an (H, W) tensor) with ``n x n`` rays per pixel (module
+    docstring); ``n = 1`` is :func:`mi_npr.kernels.lines` on ``gb`` itself. ``gb`` is the
+    film-resolution G-buffer (for ``bright_fade``); ``params`` are those of
+    :data:`~mi_npr.kernels.LINES_PARAMS`."""
     problem = aa_factor(n)
     if problem:
         raise ParameterError(f"line_aa = {n!r}: {problem}")
     check_values("lines", LINES_PARAMS, params)
     if n == 1:
-        return to_numpy(lines(gb, **params))
+        return lines(gb, **params)
     width = float(params.get("line_width", 1.0))
     check_aa_width(width, n)
     big = supersampled_gbuffer(scene, sensor, n)
@@ -115,7 +130,8 @@ def antialiased_lines(
         big = big.with_layers({L.LEAF_ID: leaf_id_layer(scene, big)})
     level = float(params.get("bright_fade", 0.0))
     sub = {**params, "line_width": width * n, "bright_fade": 0.0}
-    ink = box_filter(to_numpy(lines(big, **sub)), n)
+    ink = box_filter(lines(big, **sub), n)
     if level > 0:
-        ink = ink * to_numpy(fade(gb, gb.shape, level)).reshape(gb.shape)
+        ink = mi.TensorXf(ink.array * fade(gb, gb.shape, level), shape=gb.shape)
+    dr.eval(ink)
     return ink

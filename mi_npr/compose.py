@@ -1,4 +1,10 @@
-"""Compositing lines and overlays onto the beauty image (plain numpy, (H, W[, 3]) arrays).
+"""Compositing lines and overlays onto the beauty image.
+
+:func:`with_overlay` and :func:`with_overlays` work on a :class:`~mi_npr.gbuffer.GBuffer`'s
+tensors in Dr.Jit (no host round trip; gradients kept on AD variants); :func:`over` is the same
+rule on plain numpy (H, W, 3) arrays. The rule, per channel: ``rgb (1 - a) + color a`` with the
+coverage ``a`` clipped to [0, 1] (NaN counts as 0); where ``a`` is exactly 0 or 1 the result is
+exactly the beauty or the colour (an infinite beauty value does not turn into NaN).
 
 Integrators that draw on the beauty (``npr_lines``, ``npr_contours``, ...) keep the untouched
 beauty in the ``beauty.R beauty.G beauty.B`` layers (:data:`mi_npr.layers.RAW_RGB`), so a
@@ -8,7 +14,10 @@ compositing application can redo the mix, and write the composited image into ``
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
+import drjit as dr
+import mitsuba as mi
 import numpy as np
 
 from . import layers as L
@@ -32,30 +41,47 @@ def over(rgb: np.ndarray, alpha: np.ndarray, color: Sequence[float]) -> np.ndarr
     return rgb * (1.0 - a) + c * a
 
 
-def with_overlay(gb: GBuffer, alpha: np.ndarray, color: Sequence[float]) -> GBuffer:
-    """``gb`` with ``color`` composited onto R G B; the first call keeps the raw beauty."""
-    raw = {} if L.RAW_RGB[0] in gb else dict(zip(L.RAW_RGB, (gb[c] for c in L.RGB), strict=True))
-    out = over(gb.beauty, alpha, color)
-    return gb.with_layers({**raw, **{c: out[..., i] for i, c in enumerate(L.RGB)}})
+def _coverage(alpha: Any, shape: tuple[int, int]) -> Any:
+    """``alpha`` (a tensor or an array of ``shape``) as a flat Dr.Jit Float in [0, 1]."""
+    if dr.is_tensor_v(alpha) and dr.is_jit_v(alpha):
+        got = tuple(int(v) for v in alpha.shape)
+        a = mi.Float(alpha.array)
+    else:
+        arr = np.asarray(alpha, dtype=np.float32)
+        got = arr.shape
+        a = mi.Float(np.ascontiguousarray(arr).reshape(-1))
+    if got != shape:
+        raise ParameterError(f"overlay: alpha {got} does not match the image {shape}")
+    return dr.clip(dr.select(dr.isnan(a), 0.0, a), 0.0, 1.0)
 
 
-def with_overlays(gb: GBuffer, overlays: Sequence[tuple[np.ndarray, Sequence[float]]]) -> GBuffer:
-    """``gb`` with several ``(alpha, color)`` overlays composited in order: the same image as
-    chained :func:`with_overlay` calls, built once. Binary masks (alpha only 0 or 1, as edge
-    layers are) are drawn by assignment, channel by channel, several times faster."""
+def _rgb(color: Sequence[float]) -> list[float]:
+    c = np.asarray(color, dtype=np.float32).reshape(-1)
+    if c.size != 3:
+        raise ParameterError(f"overlay: color {tuple(color)!r} is not an RGB triple")
+    return [float(v) for v in c]
+
+
+def with_overlays(gb: GBuffer, overlays: Sequence[tuple[Any, Sequence[float]]]) -> GBuffer:
+    """``gb`` with several ``(alpha, color)`` overlays composited onto R G B in order, in one
+    Dr.Jit kernel per channel; the first overlay of a G-buffer keeps the raw beauty in
+    ``beauty.R/G/B``."""
     raw = {} if L.RAW_RGB[0] in gb else dict(zip(L.RAW_RGB, (gb[c] for c in L.RGB), strict=True))
-    planes = [gb[c].copy() for c in L.RGB]
+    planes = [mi.Float(gb[c].array) for c in L.RGB]
     for alpha, color in overlays:
-        a = np.asarray(alpha)
-        c = np.asarray(color, dtype=np.float32).reshape(-1)
-        m = a == 1
-        if a.shape == gb.shape and c.size == 3 and m.sum() + (a == 0).sum() == a.size:
-            for plane, v in zip(planes, c, strict=True):
-                plane[m] = v
-        else:
-            out = over(np.stack(planes, axis=-1), a, color)
-            planes = [np.ascontiguousarray(out[..., i]) for i in range(3)]
-    return gb.with_layers({**raw, **dict(zip(L.RGB, planes, strict=True))})
+        a, c = _coverage(alpha, gb.shape), _rgb(color)
+        planes = [
+            dr.select(a == 1.0, v, dr.select(a == 0.0, p, p * (1.0 - a) + v * a))
+            for p, v in zip(planes, c, strict=True)
+        ]
+    dr.eval(*planes)
+    out = {name: mi.TensorXf(p, shape=gb.shape) for name, p in zip(L.RGB, planes, strict=True)}
+    return gb.with_layers({**raw, **out})
+
+
+def with_overlay(gb: GBuffer, alpha: Any, color: Sequence[float]) -> GBuffer:
+    """``gb`` with ``color`` composited onto R G B; the first call keeps the raw beauty."""
+    return with_overlays(gb, [(alpha, color)])
 
 
 def raw_beauty(gb: GBuffer) -> np.ndarray:

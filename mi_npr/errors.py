@@ -5,6 +5,10 @@ The CLI prints ``str(error)`` and exits with code 1 (or 2 for usage errors); a t
 
 from __future__ import annotations
 
+import os
+import stat
+from pathlib import Path
+
 
 class NprError(Exception):
     """Base class of every error mi-npr raises on purpose."""
@@ -20,6 +24,10 @@ class ParameterError(NprError, ValueError):
 
 class InputError(NprError):
     """An input file (EXR, mesh, ...) cannot be read or holds something unexpected."""
+
+
+class MemoryLimitError(NprError):
+    """A render would need more memory than the process may use (see :mod:`mi_npr.memory`)."""
 
 
 class OutputError(NprError):
@@ -41,3 +49,36 @@ def one_line(exc: BaseException) -> str:
     text = re.sub(r"\[[\w./-]+\.(?:cpp|h|py):\d+\]\s*", "", text)
     text = " ".join(part.strip() for part in text.splitlines() if part.strip())
     return text
+
+
+def check_input_file(path: str | os.PathLike[str], error: type[NprError] = InputError) -> Path:
+    """``path`` as a Path if it is a readable regular file, else ``error`` with the reason:
+    "no such file", "is a directory", "not a regular file" (a device, a FIFO, a socket) or
+    "permission denied". One place for every input file (scenes, EXRs, meshes, HLPs)."""
+    p = Path(path)
+    try:
+        st = p.stat()
+    except FileNotFoundError:
+        raise error(f"{p}: no such file") from None
+    except NotADirectoryError:
+        raise error(f"{p}: no such file (a parent is not a directory)") from None
+    except OSError as e:
+        raise error(f"{p}: cannot read ({e.strerror or e})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise error(f"{p}: is a directory")
+    if not stat.S_ISREG(st.st_mode):
+        raise error(f"{p}: not a regular file")
+    if not os.access(p, os.R_OK):
+        raise error(f"{p}: permission denied")
+    return p
+
+
+def for_terminal(text: object) -> str:
+    """``text`` with control characters escaped (``\\x1b``, ``\\n``, ``\\u202e``...), for
+    everything that reaches a terminal: names from scenes and files (object ids, layer names,
+    metadata, paths) could otherwise set the terminal's title and colours or split a listing.
+    The one helper for it (issue 18)."""
+    s = str(text)
+    if s.isprintable():
+        return s
+    return "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode() for ch in s)

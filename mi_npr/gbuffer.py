@@ -1,15 +1,18 @@
 """The one type every stage passes: named (H, W) layers, the object table and the camera.
 
-Layout: every layer is a C-contiguous ``numpy`` array of shape ``(H, W)``, row 0 at the top of the
-image, column 0 at the left, dtype ``float32`` or ``uint32``. Arrays that come from Dr.Jit are
-zero-copy views of its memory (``.numpy()``), so moving between the renderer, the kernels and the
-writers costs nothing.
+Layout: every layer is a Dr.Jit tensor of shape ``(H, W)`` of the active JIT variant's backend
+(``mi.TensorXf`` for float32 layers, ``mi.TensorXu`` for uint32 ones), row 0 at the top of the
+image, column 0 at the left. The render pass, the kernels and compositing hand tensors to each
+other without leaving Dr.Jit (no host round trip, and on AD variants the gradient graph is
+kept); a layer becomes numpy only where a writer or a user asks: ``np.asarray(gb["Z"])`` or
+:meth:`GBuffer.numpy` (a view of Dr.Jit's memory on the LLVM backend, a copy on CUDA). numpy
+arrays given to a GBuffer are checked and copied into tensors.
 
 >>> import numpy as np
 >>> gb = GBuffer({"Z": np.ones((2, 3), np.float32)})
 >>> gb.shape, gb.names
 ((2, 3), ('Z',))
->>> gb.with_layers({"lines": np.zeros((2, 3))})["lines"].dtype
+>>> gb.with_layers({"lines": np.zeros((2, 3))}).numpy("lines").dtype
 dtype('float32')
 """
 
@@ -20,6 +23,8 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import drjit as dr
+import mitsuba as mi
 import numpy as np
 
 from . import layers as L
@@ -34,6 +39,46 @@ def to_numpy(x: Any) -> np.ndarray:
     if callable(fn):
         return np.asarray(fn())
     return np.asarray(x)
+
+
+def tensor_types() -> tuple[type, type]:
+    """``(TensorXf, TensorXu)`` of the active JIT variant (LLVM's when none is active)."""
+    if mi.variant() is not None and dr.is_jit_v(mi.Float):
+        return mi.TensorXf, mi.TensorXu
+    from drjit.llvm.ad import TensorXf, TensorXu
+
+    return TensorXf, TensorXu
+
+
+def _dtype_of(t: Any) -> np.dtype:
+    vt = dr.type_v(t)
+    if vt == dr.VarType.Float32:
+        return np.dtype(np.float32)
+    if vt == dr.VarType.UInt32:
+        return np.dtype(np.uint32)
+    return np.dtype(np.asarray(t).dtype)
+
+
+def _as_tensor(name: str, value: Any, shape: tuple[int, int] | None) -> Any:
+    """Layer ``name`` as a checked (H, W) tensor (see the module docstring)."""
+    known = L.spec(name)
+    if dr.is_tensor_v(value) and dr.is_jit_v(value):
+        shp = tuple(int(v) for v in value.shape)
+        if len(shp) == 3 and shp[-1] == 1:
+            value, shp = type(value)(value.array, shape=shp[:2]), shp[:2]
+        if len(shp) != 2:
+            raise ParameterError(f"layer {name!r}: expected a 2-D (H, W) array, got shape {shp}")
+        if shape is not None and shp != shape:
+            raise ParameterError(f"layer {name!r}: shape {shp} differs from the others' {shape}")
+        vt = dr.type_v(value)
+        want = np.dtype(known.dtype) if known is not None else None
+        if vt == dr.VarType.Float32 and want in (None, np.dtype(np.float32)):
+            return value  # kept as it is: no copy, gradients kept
+        if vt == dr.VarType.UInt32 and want in (None, np.dtype(np.uint32)):
+            return value
+    a = _as_layer(name, value, shape)
+    TF, TU = tensor_types()
+    return (TU if a.dtype == np.uint32 else TF)(a)
 
 
 def _as_layer(name: str, value: Any, shape: tuple[int, int] | None) -> np.ndarray:
@@ -154,7 +199,7 @@ class GBuffer:
     variant, mi-npr version) that writers store as file attributes.
     """
 
-    layers: Mapping[str, np.ndarray]
+    layers: Mapping[str, Any]  # name -> (H, W) Dr.Jit tensor (TensorXf or TensorXu)
     objects: Mapping[int, str] = field(default_factory=dict)
     camera: Camera | None = None
     metadata: Mapping[str, str] = field(default_factory=dict)
@@ -162,13 +207,13 @@ class GBuffer:
     def __post_init__(self) -> None:
         if not self.layers:
             raise ParameterError("a GBuffer needs at least one layer")
-        checked: dict[str, np.ndarray] = {}
+        checked: dict[str, Any] = {}
         shape = None
         for name, value in self.layers.items():
             if not isinstance(name, str) or not name:
                 raise ParameterError(f"layer names must be non-empty strings, got {name!r}")
-            checked[name] = _as_layer(name, value, shape)
-            shape = checked[name].shape
+            checked[name] = _as_tensor(name, value, shape)
+            shape = tuple(int(v) for v in checked[name].shape)
         objects = {int(k): str(v) for k, v in dict(self.objects).items()}
         if 0 in objects:
             raise ParameterError("object id 0 is the background and cannot be in the table")
@@ -180,7 +225,8 @@ class GBuffer:
     @property
     def shape(self) -> tuple[int, int]:
         """(height, width)."""
-        return next(iter(self.layers.values())).shape  # type: ignore[return-value]
+        h, w = next(iter(self.layers.values())).shape
+        return int(h), int(w)
 
     @property
     def height(self) -> int:
@@ -194,7 +240,8 @@ class GBuffer:
     def names(self) -> tuple[str, ...]:
         return tuple(self.layers)
 
-    def __getitem__(self, name: str) -> np.ndarray:
+    def __getitem__(self, name: str) -> Any:
+        """The layer as an (H, W) Dr.Jit tensor (``np.asarray`` of it is a numpy array)."""
         try:
             return self.layers[name]
         except KeyError:
@@ -214,13 +261,21 @@ class GBuffer:
     def get(self, name: str, default: Any = None) -> Any:
         return self.layers.get(name, default)
 
+    def numpy(self, name: str) -> np.ndarray:
+        """Layer ``name`` as an (H, W) numpy array (float32 or uint32)."""
+        return to_numpy(self[name])
+
+    def dtype(self, name: str) -> np.dtype:
+        """The pixel type of layer ``name``: float32 or uint32."""
+        return _dtype_of(self[name])
+
     def stack(self, names: tuple[str, ...] | list[str]) -> np.ndarray:
-        """Several layers as one (H, W, len(names)) array (a copy)."""
-        return np.stack([self[n] for n in names], axis=-1)
+        """Several layers as one (H, W, len(names)) numpy array (a copy)."""
+        return np.stack([self.numpy(n) for n in names], axis=-1)
 
     @property
     def beauty(self) -> np.ndarray:
-        """The beauty render as (H, W, 3) linear RGB."""
+        """The beauty render as (H, W, 3) linear RGB (numpy)."""
         return self.stack(L.RGB)
 
     @property
@@ -233,7 +288,7 @@ class GBuffer:
 
     @property
     def object_id(self) -> np.ndarray:
-        return self[L.OBJECT_ID]
+        return self.numpy(L.OBJECT_ID)
 
     def object_name(self, object_id: int) -> str:
         if object_id == 0:
@@ -266,7 +321,7 @@ class GBuffer:
         return replace(self, metadata=md)
 
     def __repr__(self) -> str:
-        chans = ", ".join(f"{k}:{v.dtype}" for k, v in self.layers.items())
+        chans = ", ".join(f"{k}:{_dtype_of(v)}" for k, v in self.layers.items())
         return (
             f"GBuffer({self.width}x{self.height}, layers=[{chans}], "
             f"objects={len(self.objects)}, camera={'yes' if self.camera else 'no'})"
@@ -279,7 +334,7 @@ class GBuffer:
         if self.names != other.names:
             return False
         for k in self.names:
-            a, b = self[k], other[k]
+            a, b = self.numpy(k), other.numpy(k)
             if a.dtype != b.dtype or a.shape != b.shape:
                 return False
             if not np.array_equal(a.view(np.uint32), b.view(np.uint32)):

@@ -43,18 +43,19 @@ def pack(gb: GBuffer, names: Sequence[str]) -> mi.TensorXf:
     return _interleave(_planar([gb[k] for k in names]), len(names), h, w)
 
 
-def _planar(planes: Sequence[np.ndarray]) -> mi.Float:
-    """(H, W) float32 or uint32 arrays one after the other in one Dr.Jit array (contiguous
-    copies); interleaving it with one gather was measured faster than strided scatters or
-    numpy's stack at 1920x1080."""
-    n = planes[0].size
-    planar = dr.empty(mi.Float, len(planes) * n)
-    idx = dr.arange(mi.UInt32, n)
-    for i, a in enumerate(planes):
-        a = a.reshape(-1)
-        v = mi.Float(a) if a.dtype == np.float32 else mi.Float(mi.UInt32(a))
-        dr.scatter(planar, v, idx + i * n)
-    return planar
+def _planar(planes: Sequence[Any]) -> mi.Float:
+    """(H, W) float32 or uint32 tensors (or arrays) one after the other in one Dr.Jit array;
+    integer layers become float32 (exact below 2**24). Interleaving it with one gather was
+    measured faster than strided scatters or numpy's stack at 1920x1080."""
+    flat = []
+    for a in planes:
+        if dr.is_tensor_v(a) and dr.is_jit_v(a):
+            v = a.array
+        else:
+            v = np.ascontiguousarray(a).reshape(-1)
+            v = mi.Float(v) if v.dtype == np.float32 else mi.UInt32(v)
+        flat.append(v if isinstance(v, mi.Float) else mi.Float(v))
+    return dr.concat(flat) if len(flat) > 1 else flat[0]
 
 
 def _interleave(planar: mi.Float, c: int, h: int, w: int, ones_at: int = -1) -> mi.TensorXf:
@@ -88,12 +89,33 @@ def develop_into_film(film: mi.Film, gb: GBuffer, aovs: Sequence[str]) -> mi.Ten
     if not rgb_film:
         return pack(gb, names)
     h, w = gb.shape
-    alpha = [(gb[L.OBJECT_ID] > 0).astype(np.float32)] if base == 5 else []
+    alpha = [mi.TensorXf(dr.select(gb[L.OBJECT_ID].array > 0, 1.0, 0.0))] if base == 5 else []
     planes = [*(gb[k] for k in L.RGB), *alpha, *(gb[k] for k in aovs)]
     planar = _planar(planes)
     block = _interleave(planar, len(planes), h, w, ones_at=base - 1)
     film.put_block(mi.ImageBlock(block, offset=film.crop_offset()))
     return _interleave(planar, len(planes), h, w)  # R G B (A) aovs, like Mitsuba's develop()
+
+
+def _refuse_other_objects(plugin: str, props: mi.Properties) -> None:
+    """A nested object that is not an integrator (a ``<bsdf>`` put inside the integrator by
+    mistake) is an error naming it, not silently ignored (issue 18)."""
+    kinds = ("BSDF", "Emitter", "Shape", "Texture", "Sensor", "Medium", "Film", "Sampler")
+    for key in props.keys():
+        v = props.get(key)
+        if isinstance(v, mi.Object) and not isinstance(v, mi.Integrator):
+            kind = next((k.lower() for k in kinds if isinstance(v, getattr(mi, k))), "object")
+            name = v.id() if hasattr(v, "id") and v.id() else v.class_name()
+            raise ParameterError(
+                f"{plugin}: a nested <{kind}> ({name}) is not allowed inside it; "
+                "only one nested (beauty) integrator is"
+            )
+
+
+#: Every mi-npr integrator's own parameter: Cryptomatte 1.2 layers (:mod:`mi_npr.cryptomatte`).
+CRYPTOMATTE = Param(
+    "cryptomatte", bool, False, "add CryptoObject and CryptoMaterial layers (Cryptomatte 1.2)"
+)
 
 
 class NprIntegrator(mi.SamplingIntegrator):
@@ -106,17 +128,24 @@ class NprIntegrator(mi.SamplingIntegrator):
         require_jit(self.PLUGIN)
         super().__init__(props)
         nested = [props.get(k) for k in props.keys() if isinstance(props.get(k), mi.Integrator)]
+        _refuse_other_objects(self.PLUGIN, props)
         if len(nested) > 1:
             raise ParameterError(f"{self.PLUGIN}: at most one nested (beauty) integrator")
         self.beauty: mi.Integrator | None = nested[0] if nested else None
         self.params: dict[str, Any] = read_props(
-            self.PLUGIN, self.PARAMS, props, lambda v: isinstance(v, mi.Object)
+            self.PLUGIN, (*self.PARAMS, CRYPTOMATTE), props, lambda v: isinstance(v, mi.Object)
         )
 
     # ------------------------------------------------------------ the pipeline
     def aov_names(self) -> list[str]:
         """Channels after the beauty's R, G, B in ``mi.render``'s output."""
-        return list(L.GBUFFER_AOVS)
+        return [*L.GBUFFER_AOVS, *self.crypto_aovs()]
+
+    def crypto_aovs(self) -> list[str]:
+        """The Cryptomatte channels, last in every integrator's list when ``cryptomatte`` is on."""
+        from .cryptomatte import aov_names
+
+        return aov_names() if self.params.get("cryptomatte") else []
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         """Add this integrator's layers to ``gb`` (and composite onto R, G, B)."""
@@ -138,6 +167,10 @@ class NprIntegrator(mi.SamplingIntegrator):
             session = SceneSession(scene, sensor_of(scene, sensor), source, check_spp(spp))
         gb = render_gbuffer(session, beauty=self.beauty, spp=spp, seed=seed)
         gb = self.post(session.scene, session.sensor, gb)
+        if self.params.get("cryptomatte"):
+            from .cryptomatte import add_cryptomatte
+
+            gb = add_cryptomatte(gb, session.scene, session.sensor, spp, seed)
         return gb.with_metadata(**{"mi_npr/integrator": self.PLUGIN})
 
     def render(

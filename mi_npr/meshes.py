@@ -18,7 +18,7 @@ from plyfile import PlyData, PlyElement, PlyElementParseError, PlyListProperty, 
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from .errors import InputError
+from .errors import InputError, check_input_file
 from .io._atomic import atomic_output
 
 
@@ -148,8 +148,7 @@ def read_ply(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, dict
     (``nx ny nz`` normals, ...). Faces are the first list property of the ``face`` element;
     polygons are fanned into triangles."""
     p = Path(path)
-    if not p.is_file():
-        raise InputError(f"{p}: no such file")
+    check_input_file(p)
     with open(p, "rb") as f:
         if f.read(3) != b"ply":
             raise InputError(f"{p}: not a PLY file")

@@ -1,5 +1,13 @@
-"""Plugin parameters: declared once (name, type, default, meaning, check), read from
-``mi.Properties``, and rejected with an error that names the plugin, the parameter and the value.
+"""Parameters: declared once (name, type, default, meaning, check), read from ``mi.Properties``,
+keyword arguments or the command line, and rejected with an error that names the plugin (or
+flag), the parameter and the value.
+
+One validation table (issue 18): every plugin declares its ``PARAMS`` with :class:`Param`, the
+command line's numeric flags are :data:`CLI_PARAMS`, and public functions check their arguments
+with :func:`check_arg` against the same rules. Every number must be finite, and every integer
+parameter must have a rule with an upper bound (a :class:`Param` of type ``int`` without a check
+is refused when it is declared), so no count can make a run hang. ``tests/test81`` is generated
+from :func:`all_tables`: each parameter with NaN, inf, negative, zero, huge and wrong-type values.
 
 Mitsuba does not complain about unknown parameters of Python plugins, so a typo such as
 ``<float name="tt" .../>`` would be silently ignored; :func:`read_props` rejects it.
@@ -16,16 +24,71 @@ import numpy as np
 
 from .errors import ParameterError
 
+Rule = Callable[[Any], "str | None"]
+
+#: The largest float32: a float parameter beyond it would be inf in Mitsuba and the kernels.
+F32_MAX = 3.4028234663852886e38
+#: Largest seed: Mitsuba's samplers take an unsigned 32-bit seed.
+SEED_MAX = 2**32 - 1
+#: Largest samples per pixel (beyond it a film's sample count overflows long before it helps).
+MAX_SPP = 1 << 16
+#: Largest image side in pixels (Mitsuba's own limit is far above what memory allows anyway).
+MAX_RES = 1 << 15
+#: Largest best-view subdivision depth: the triangle's side halves each time; 12 is ~0.02 deg.
+MAX_VIEW_DEPTH = 12
+#: Most HLPs (and never more than the plant has leaves).
+MAX_HLPS = 1024
+#: Most selective-dilation passes (it stops changing anything after a few).
+MAX_ITERATIONS = 64
+#: Deepest ray tree (``npr_raytree``, ``mi-npr raytree --max-depth``).
+MAX_RAYTREE_DEPTH = 31
+
+
+def integer_range(lo: int, hi: int) -> Rule:
+    """The rule of an integer in ``lo..hi``."""
+
+    def check(v: Any) -> str | None:
+        return None if lo <= v <= hi else f"must be in {lo}..{hi}"
+
+    return check
+
+
+def real_range(lo: float, hi: float = math.inf, *, open_lo: bool = False) -> Rule:
+    """The rule of a finite number in ``[lo, hi]`` (``(lo, hi]`` with ``open_lo``)."""
+
+    def check(v: Any) -> str | None:
+        ok = math.isfinite(v) and (v > lo if open_lo else v >= lo) and v <= hi
+        if ok:
+            return None
+        left = "(" if open_lo else "["
+        return f"must be a finite number in {left}{lo:g}, {hi:g}]"
+
+    return check
+
+
+def rgb_color(rgb: tuple[float, ...]) -> str | None:
+    """The rule of a linear RGB colour: three finite values >= 0."""
+    ok = all(math.isfinite(v) and v >= 0 for v in rgb)
+    return None if ok else "must be finite and >= 0 (linear RGB)"
+
+
+seed_rule = integer_range(0, SEED_MAX)
+
 
 @dataclass(frozen=True)
 class Param:
-    """One plugin parameter. ``check`` returns an error text for a bad value, else ``None``."""
+    """One parameter. ``check`` returns an error text for a bad value, else ``None``; integer
+    parameters must have one (an upper bound for every count)."""
 
     name: str
     type: type
     default: Any
     doc: str
     check: Callable[[Any], str | None] | None = None
+
+    def __post_init__(self) -> None:
+        if self.type is int and self.check is None:
+            raise TypeError(f"Param {self.name!r}: an integer parameter needs a bounded check")
 
 
 def coerce(plugin: str, p: Param, value: Any) -> Any:
@@ -54,20 +117,29 @@ def coerce(plugin: str, p: Param, value: Any) -> Any:
     elif p.type is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ParameterError(f"{bad}: expected a number")
-        out = float(value)
+        try:
+            out = float(value)
+        except OverflowError:
+            out = math.inf
+        if not abs(out) <= F32_MAX:  # Mitsuba and the kernels read parameters as float32
+            raise ParameterError(f"{bad}: must be a finite number (float32)")
     elif p.type is str:
         if not isinstance(value, str):
             raise ParameterError(f"{bad}: expected a string")
         out = value
     elif p.type is tuple:  # an RGB colour
+        if isinstance(value, (str, bytes, bool)):
+            raise ParameterError(f"{bad}: expected an RGB colour")
         try:
             vals = [float(v) for v in (value if not hasattr(value, "__len__") else list(value))]
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ParameterError(f"{bad}: expected an RGB colour") from None
         if len(vals) == 1:
             vals = vals * 3
         if len(vals) != 3:
             raise ParameterError(f"{bad}: expected an RGB colour (3 values)")
+        if not all(abs(v) <= F32_MAX for v in vals):
+            raise ParameterError(f"{bad}: must be finite (linear RGB)")
         out = tuple(vals)
     else:
         out = value
@@ -114,3 +186,97 @@ def table(params: Sequence[Param]) -> str:
         for p in params
     ]
     return "\n".join(f"  {a:<22} {b:<7} {c:<10} {d}" for a, b, c, d in rows)
+
+
+def check_arg(who: str, p: Param, value: Any) -> Any:
+    """A public function's argument checked against ``p`` (the same rules as the plugins'):
+    the value converted to ``p.type``, or :class:`ParameterError` naming ``who`` and ``p``."""
+    return coerce(who, p, value)
+
+
+def problem(p: Param, value: Any) -> str | None:
+    """What is wrong with ``value`` for ``p`` (the text after the name), else ``None``."""
+    try:
+        coerce("", p, value)
+    except ParameterError as e:
+        return str(e).split(": ", 2)[-1]
+    return None
+
+
+#: The command line's numeric flags, by command (``mi-npr COMMAND --flag``): parsed with
+#: :func:`cli_type` so a bad value is a usage error naming the flag.
+CLI_PARAMS: dict[str, tuple[Param, ...]] = {
+    "render": (
+        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
+        Param("--seed", int, 0, "sampler seed", seed_rule),
+        Param("--line-width", float, None, "line width (px)", real_range(0.0, 15.0, open_lo=True)),
+        Param("--line-aa", int, None, "rays per pixel side", integer_range(1, 8)),
+    ),
+    "contours": (
+        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
+        Param("--seed", int, 0, "sampler seed", seed_rule),
+    ),
+    "raytree": (
+        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
+        Param("--seed", int, 0, "sampler seed", seed_rule),
+        Param("--max-depth", int, None, "ray-tree levels", integer_range(1, MAX_RAYTREE_DEPTH)),
+    ),
+    "best-view": (
+        Param("--depth", int, 4, "subdivisions", integer_range(0, MAX_VIEW_DEPTH)),
+        Param("--res", int, 128, "ID buffer long side", integer_range(1, MAX_RES)),
+    ),
+    "foliage": (
+        Param("--leaf-size", float, None, "leaf length", real_range(0.0, 1e6, open_lo=True)),
+        Param("--abstraction", float, None, "normal mixing", real_range(0.0, 1.0)),
+        Param("--hlps", int, None, "number of HLPs", integer_range(1, MAX_HLPS)),
+        Param("--seed", int, 0, "seed", seed_rule),
+    ),
+}
+
+
+def cli_param(command: str, flag: str) -> Param:
+    """The :data:`CLI_PARAMS` entry of ``flag`` of ``command``."""
+    return next(p for p in CLI_PARAMS[command] if p.name == flag)
+
+
+def cli_type(command: str, flag: str) -> Callable[[str], Any]:
+    """An ``argparse`` ``type=`` that parses ``flag``'s text and checks it against its table
+    entry; a bad value raises ``ArgumentTypeError`` (argparse names the flag)."""
+    import argparse
+
+    p = cli_param(command, flag)
+
+    def parse(text: str) -> Any:
+        try:
+            value: Any = int(text) if p.type is int else float(text)
+        except ValueError:
+            kind = "an integer" if p.type is int else "a number"
+            raise argparse.ArgumentTypeError(f"{text!r} is not {kind}") from None
+        why = problem(p, value)
+        if why:
+            raise argparse.ArgumentTypeError(f"{text!r}: {why}")
+        return coerce(flag, p, value)
+
+    return parse
+
+
+def all_tables() -> dict[str, tuple[Param, ...]]:
+    """Every parameter table: each plugin's ``PARAMS`` (module- or class-level), the lines
+    chain's and the command line's (for the generated test, so no parameter escapes it)."""
+    import importlib
+    import pkgutil
+
+    from . import plugins as plugin_pkg
+    from .kernels import LINES_PARAMS
+
+    tables: dict[str, tuple[Param, ...]] = {"lines": LINES_PARAMS}
+    for info in pkgutil.iter_modules(plugin_pkg.__path__):
+        mod = importlib.import_module(f"{plugin_pkg.__name__}.{info.name}")
+        found = [getattr(mod, "PARAMS", None)]
+        found += [getattr(v, "PARAMS", None) for v in vars(mod).values() if isinstance(v, type)]
+        for t in found:
+            if t and all(isinstance(p, Param) for p in t):
+                tables[info.name] = tuple(dict.fromkeys([*tables.get(info.name, ()), *t]))
+    for cmd, t in CLI_PARAMS.items():
+        tables[f"mi-npr {cmd}"] = t
+    return tables

@@ -20,11 +20,11 @@ from typing import Any
 
 import drjit as dr
 import mitsuba as mi
-import numpy as np
 
 from . import layers as L
 from ._version import __version__
-from .gbuffer import GBuffer, to_numpy
+from .gbuffer import GBuffer
+from .memory import check_render, render_passes
 from .raycast import Hits, cast, film_grid, film_size, pixel_rays, require_jit
 from .scene import ObjectTable, camera_of, merge_defines, sensor_of
 from .session import SceneSession, check_spp
@@ -82,24 +82,36 @@ def channels(
 
 
 def gbuffer_layers(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, shade: bool) -> dict:
-    """Run the pixel-centre pass: ``{name: (H, W) numpy array}`` (views of Dr.Jit memory)."""
+    """Run the pixel-centre pass: ``{name: (H, W) tensor}`` (Dr.Jit, evaluated, gradients kept
+    on AD variants)."""
     w, h = film_size(sensor)
     out = channels(scene, sensor, pixel_rays(sensor, *film_grid(w, h)), table, shade)
     dr.eval(*out.values())
-    return {k: to_numpy(v).reshape(h, w) for k, v in out.items()}
+    TF, TU = mi.TensorXf, mi.TensorXu
+    return {k: (TU if isinstance(v, mi.UInt32) else TF)(v, shape=(h, w)) for k, v in out.items()}
 
 
 def beauty_layers(
-    scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Integrator, spp: int, seed: int
-) -> dict[str, np.ndarray]:
-    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B."""
-    img = integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
-    a = to_numpy(img)
-    if a.ndim != 3 or a.shape[-1] < 3:
-        # Mono variants or odd films: replicate the first channel.
-        a = a.reshape(a.shape[0], a.shape[1], -1)
-        a = np.repeat(a[..., :1], 3, axis=-1)
-    return {name: a[..., i] for i, name in enumerate(L.RGB)}
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    integrator: mi.Integrator,
+    spp: int,
+    seed: int,
+    passes: int = 1,
+) -> dict[str, Any]:
+    """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B as
+    (H, W) tensors (in ``passes`` renders when memory asks for it, :mod:`mi_npr.memory`)."""
+    img = render_passes(integrator, scene, sensor, spp, seed, passes)
+    h, w = (int(v) for v in img.shape[:2])
+    c = int(img.shape[2]) if img.ndim == 3 else 1
+    flat = img.array
+    idx = dr.arange(mi.UInt32, h * w) * c
+    # Mono variants or odd films (fewer than 3 channels): the first channel three times.
+    pick = [min(i, c - 1) if c >= 3 else 0 for i in range(3)]
+    return {
+        name: mi.TensorXf(dr.gather(mi.Float, flat, idx + k), shape=(h, w))
+        for name, k in zip(L.RGB, pick, strict=True)
+    }
 
 
 def render_gbuffer(
@@ -122,11 +134,12 @@ def render_gbuffer(
         require_jit()
         session = SceneSession(scene, sensor_of(scene, sensor), source, spp)
     sensor = session.sensor
+    passes = check_render(sensor, beauty, spp, seed)  # table checks, memory (issue 18)
     with session.step("rendering"):
         table = session.objects
         layers = gbuffer_layers(session.scene, sensor, table, shade=beauty is None)
         if beauty is not None:
-            layers.update(beauty_layers(session.scene, sensor, beauty, spp or 0, seed))
+            layers.update(beauty_layers(session.scene, sensor, beauty, spp or 0, seed, passes))
     ordered = {k: layers[k] for k in L.GBUFFER}
     spp_used = spp if spp is not None else sensor.sampler().sample_count()
     meta = {

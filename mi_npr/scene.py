@@ -24,7 +24,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .errors import ParameterError, SceneError, one_line
+from .errors import ParameterError, SceneError, check_input_file, one_line
 from .gbuffer import Camera
 
 
@@ -71,8 +71,7 @@ def load_scene(
     if not isinstance(scene, (str, os.PathLike)):
         raise ParameterError(f"expected a scene or an XML path, got {type(scene).__name__}")
     path = os.fspath(scene)
-    if not os.path.isfile(path):
-        raise SceneError(f"{path}: no such file")
+    check_input_file(path, SceneError)
     values = {k: _define_value(k, v) for k, v in defines.items()}
     try:
         return mi.load_file(path, optimize=False, **values)

@@ -21,12 +21,13 @@ import contextlib
 import os
 import threading
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import mitsuba as mi
 
 from .errors import ParameterError, SceneError, one_line
+from .params import check_arg, cli_param
 from .raycast import require_jit
 from .scene import (
     ObjectTable,
@@ -42,7 +43,8 @@ RENDER_LOCK = threading.RLock()
 
 
 def check_spp(spp: int | str | None) -> int | None:
-    """``spp`` as an int >= 1 (a command-line string is parsed), or ``None``."""
+    """``spp`` checked against the validation table (:mod:`mi_npr.params`; a command-line string
+    is parsed), or ``None``."""
     if spp is None:
         return None
     if isinstance(spp, str):
@@ -50,9 +52,7 @@ def check_spp(spp: int | str | None) -> int | None:
             spp = int(spp)
         except ValueError:
             raise ParameterError(f"spp = {spp!r}: must be a positive integer") from None
-    if not isinstance(spp, int) or isinstance(spp, bool) or spp < 1:
-        raise ParameterError(f"spp = {spp!r}: must be a positive integer")
-    return spp
+    return check_arg("render", replace(cli_param("render", "--spp"), name="spp"), spp)
 
 
 @dataclass

@@ -29,11 +29,11 @@ real objects from their reflections and refractions.
    * - ``color``
      - rgb
      - ``1, 0, 0``
-     - Linear RGB of the contour pixels.
+     - Linear RGB of the contour pixels (finite, >= 0, like ``npr_lines``'s ``line_color``).
 
-Channels (``aov_names()``, after ``R G B``): ``contour`` (object id on contour pixels, 0
+Channels (``aov_names()``, after ``R G B``): ``contour.V`` (object id on contour pixels, 0
 elsewhere, in the ids of ``id_mode``; their names are in the GBuffer's metadata
-``mi_npr/contour_objects``), the G-buffer's ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id``,
+``mi_npr/contour_objects``), the G-buffer's ``Z P.X P.Y P.Z N.X N.Y N.Z object_id.V prim_id.V``,
 then the untouched beauty ``beauty.R beauty.G beauty.B``. ``R G B`` hold the beauty with the
 contours drawn.
 
@@ -56,7 +56,7 @@ from mi_npr import layers as L
 from mi_npr.contours import ID_MODES, METHODS, overlay
 from mi_npr.gbuffer import GBuffer
 from mi_npr.integrator import NprIntegrator
-from mi_npr.params import Param
+from mi_npr.params import Param, rgb_color
 
 
 def _one_of(values: tuple[str, ...]):
@@ -70,11 +70,11 @@ class NprContoursIntegrator(NprIntegrator):
     PARAMS = (
         Param("method", str, "border", "border or code_direction", _one_of(METHODS)),
         Param("id_mode", str, "shape", "shape, primitive or component", _one_of(ID_MODES)),
-        Param("color", tuple, (1.0, 0.0, 0.0), "linear RGB of the contours"),
+        Param("color", tuple, (1.0, 0.0, 0.0), "linear RGB of the contours", rgb_color),
     )
 
     def aov_names(self) -> list[str]:
-        return [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB]
+        return [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         out, _ = overlay(

@@ -4,7 +4,7 @@ Thesis section 4.3 draws *leaf primitives* instead of a plant's own leaves: thei
 dense the silhouette edges are. XML cannot generate geometry, so this plugin does, from the files
 it names, with :func:`mi_npr.foliage.make_leaves`: ONE triangle mesh for all leaves (fast to load
 and to trace), with UVs and the per-triangle leaf index (``face_leaf`` attribute) that becomes the
-``leaf_id`` layer. Because the mesh is made at load time, ``leaf_size`` and every other parameter
+``leaf_id.V`` layer. Because the mesh is made at load time, ``leaf_size`` and every other parameter
 can be a ``<default>`` of the scene (``mi-npr render tree.xml -D leaf_size=0.2``). The same
 arguments give the same leaves (``seed``).
 
@@ -95,7 +95,7 @@ from mi_npr.foliage.hlp import HLPSet
 from mi_npr.foliage.leaves import ORIENTATIONS, PLACEMENTS, make_leaves
 from mi_npr.foliage.plant import read_plant
 from mi_npr.foliage.shape import leaf_mesh, nested_bsdf, resolve_path
-from mi_npr.params import Param, read_props
+from mi_npr.params import Param, integer_range, read_props, seed_rule
 
 
 def _one_of(options: tuple[str, ...]):
@@ -113,8 +113,7 @@ def _tilt(v: float) -> str | None:
     return None if 0 <= v <= 90 else "must lie in [0, 90] degrees"
 
 
-def _count(v: int) -> str | None:
-    return None if v >= 1 else "must be >= 1"
+_count = integer_range(1, 100_000_000)
 
 
 PARAMS = (
@@ -126,7 +125,7 @@ PARAMS = (
     Param("orientation", str, "hlp", "hlp, leaf, van_gogh or random", _one_of(ORIENTATIONS)),
     Param("coverage", float, 1.0, "leaf area over the foliage's area", _positive),
     Param("tilt", float, 25.0, "random tilt in degrees", _tilt),
-    Param("seed", int, 0, "seed of placement and orientation"),
+    Param("seed", int, 0, "seed of placement and orientation", seed_rule),
     Param("max_leaves", int, 1_000_000, "largest number of leaves", _count),
 )
 

@@ -4,7 +4,7 @@ The exact pixel-centre G-buffer of ``npr_gbuffer`` goes through :func:`mi_npr.ke
 normalised depth -> selective dilation (eqs. 5.3-5.4) -> signed depth contours (eq. 5.1) ->
 isolated-pixel removal (eq. 5.2), plus object boundaries (ID edges) and creases, every kind 1 px
 wide on one side of its edge (see :mod:`mi_npr.kernels.chain` for the width rule), computed from
-``line_aa`` x ``line_aa`` rays per pixel and box-filtered. The gray-level result is the ``lines``
+``line_aa`` x ``line_aa`` rays per pixel and box-filtered. The gray-level result is the ``lines.V``
 layer, and it is composited onto the nested integrator's beauty in ``line_color``
 (``R G B``); the untouched beauty stays in ``beauty.R beauty.G beauty.B``.
 
@@ -35,7 +35,7 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
    * - ``dilation_iterations``
      - integer
      - 1
-     - Selective-dilation passes; 0 turns the pre-filter off.
+     - Selective-dilation passes, 0..64; 0 turns the pre-filter off.
    * - ``remove_isolated``
      - boolean
      - true
@@ -52,8 +52,8 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
    * - ``leaf_edges``
      - integer
      - 0
-     - Also outline every leaf primitive (``npr_leaves`` shapes) from the ``leaf_id`` layer:
-       0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px. Adds the ``leaf_id`` layer to the output.
+     - Also outline every leaf primitive (``npr_leaves`` shapes) from the ``leaf_id.V`` layer:
+       0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px. Adds the ``leaf_id.V`` layer to the output.
    * - ``max_density``
      - float
      - 1
@@ -82,9 +82,9 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
    * - ``near``, ``far``
      - float
      - unset
-     - Camera depths mapped to 0 and 1. Unset: the frame's nearest and farthest finite depth.
-       The background is always 1, so the farthest object's contour against the background
-       needs a ``far`` beyond the scene.
+     - Camera depths mapped to 0 and 1. Unset: the frame's nearest finite depth and the larger
+       of its farthest and 4x its nearest. The background is a full step beyond every object
+       pixel whatever ``far`` is (see :mod:`mi_npr.kernels.chain`).
    * - (nested integrator)
      - integrator
      - none
@@ -94,8 +94,8 @@ The defaults draw what a line drawing holds, as Blender Freestyle's silhouette +
 (134 degrees) do: depth contours, object boundaries and creases, each 1 px wide (see
 :mod:`mi_npr.kernels.chain` for why).
 
-``mi.render(scene)`` returns (H, W, 16): ``R G B`` (beauty with the lines), ``lines``, the
-G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id`` (then ``leaf_id`` when
+``mi.render(scene)`` returns (H, W, 16): ``R G B`` (beauty with the lines), ``lines.V``, the
+G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id.V prim_id.V`` (then ``leaf_id.V`` when
 ``leaf_edges`` is on), and last the untouched beauty ``beauty.R beauty.G beauty.B``: the layout
 of every mi-npr integrator that draws on the beauty (its own layers, the G-buffer, the raw
 beauty). The sensor's film holds the same channels afterwards. ``mi-npr render`` writes every
@@ -119,7 +119,6 @@ Every scene of ``scenes_xml/`` takes it: ``mi-npr render scenes_xml/scene1.xml -
 from __future__ import annotations
 
 import json
-import math
 
 import mitsuba as mi
 
@@ -132,16 +131,10 @@ from mi_npr.gbuffer import GBuffer
 from mi_npr.integrator import NprIntegrator
 from mi_npr.kernels import LINES_PARAMS
 from mi_npr.kernels.depth_lines import check_range
-from mi_npr.params import Param, coerce
-
-
-def _color(rgb: tuple[float, ...]) -> str | None:
-    ok = all(math.isfinite(v) and v >= 0 for v in rgb)
-    return None if ok else "must be finite and >= 0 (linear RGB)"
-
+from mi_npr.params import Param, coerce, rgb_color
 
 _LINE_COLOR = Param(
-    "line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)", _color
+    "line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)", rgb_color
 )
 #: Measured (issue 19, cornell_box and scene4 at 320x240): the mean |error| of the lines layer
 #: against 8 x 8 rays per pixel, relative to its mean ink, is 0.86-1.5 with 1 ray, 0.25-0.33
@@ -168,7 +161,7 @@ class NprLinesIntegrator(NprIntegrator):
 
     def aov_names(self) -> list[str]:
         extra = [L.LEAF_ID] if self.params["leaf_edges"] else []
-        return [L.LINES, *L.GBUFFER_AOVS, *extra, *L.RAW_RGB]
+        return [L.LINES, *L.GBUFFER_AOVS, *extra, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         params = {k: self.params[k] for k in _CHAIN}

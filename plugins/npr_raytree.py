@@ -4,7 +4,7 @@ Every pixel's ray tree (paper, section 2.2.3) is traced deterministically: the o
 lights visible from it (one shadow ray per emitter), and, below mirror-like surfaces (delta
 reflection) a reflection child, below glass (delta transmission) also a refraction child, down to
 ``max_depth`` levels; rough and diffuse surfaces end a branch. The tree's 64-bit hash is written
-as ``raytree.hi``/``raytree.lo``; trees at pixel corners are compared and each edge pixel is
+as ``raytree_hi.V``/``raytree_lo.V``; trees at pixel corners are compared and each edge pixel is
 classified as a real contour, a shadow, a reflection or a refraction edge. The classes are drawn
 over the beauty: real red, reflection blue, refraction green, shadow gray.
 
@@ -33,17 +33,17 @@ Lights are numbered 1..K by name (their XML ``id``), objects by the stable objec
 
 Channels after ``R G B`` (``aov_names()``):
 
-=====================  =======  ==========================================================
-channel                type     meaning
-=====================  =======  ==========================================================
-``raytree.hi/lo``      uint32   64-bit hash of the pixel-centre tree (0: nothing hit)
-``edges.real``         float32  1 where the corner trees' primary objects differ
-``edges.reflection``   float32  1 where they first differ in reflection children
-``edges.refraction``   float32  1 where they first differ in refraction children
-``edges.shadow``       float32  1 where the objects agree but the visible lights differ
-(G-buffer)             ...      ``Z P.X P.Y P.Z N.X N.Y N.Z object_id prim_id``
-``beauty.R/G/B``       float32  the beauty before the overlay
-=====================  =======  ==========================================================
+========================  =======  ==========================================================
+channel                   type     meaning
+========================  =======  ==========================================================
+``raytree_hi/lo.V``       uint32   64-bit hash of the pixel-centre tree (0: nothing hit)
+``edges_real.V``          float32  1 where the corner trees' primary objects differ
+``edges_reflection.V``    float32  1 where they first differ in reflection children
+``edges_refraction.V``    float32  1 where they first differ in refraction children
+``edges_shadow.V``        float32  1 where the objects agree but the visible lights differ
+(G-buffer)                ...      ``Z P.X P.Y P.Z N.X N.Y N.Z object_id.V prim_id.V``
+``beauty.R/G/B``          float32  the beauty before the overlay
+========================  =======  ==========================================================
 
 ``R G B`` hold the beauty with the edge classes drawn over it. ``mi_npr.raytree.signature(scene,
 x, y)`` returns the readable tree of one pixel (``"4A2BL1C"``).
@@ -63,13 +63,11 @@ import mitsuba as mi
 from mi_npr import layers as L
 from mi_npr.gbuffer import GBuffer
 from mi_npr.integrator import NprIntegrator
-from mi_npr.params import Param
+from mi_npr.params import Param, integer_range
 from mi_npr.raytree import LAYERS, add_raytree
 from mi_npr.raytree.tracer import MAX_DEPTH
 
-
-def _depth(v: int) -> str | None:
-    return None if 1 <= v <= MAX_DEPTH else f"must be in 1..{MAX_DEPTH}"
+_depth = integer_range(1, MAX_DEPTH)
 
 
 class NprRayTreeIntegrator(NprIntegrator):
@@ -79,7 +77,7 @@ class NprRayTreeIntegrator(NprIntegrator):
     PARAMS = (Param("max_depth", int, 3, "levels of the ray trees", _depth),)
 
     def aov_names(self) -> list[str]:
-        return [*LAYERS, *L.GBUFFER_AOVS, *L.RAW_RGB]
+        return [*LAYERS, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
 
     def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
         return add_raytree(scene, sensor, gb, self.params["max_depth"])

@@ -12,12 +12,12 @@ from mi_npr import Camera, GBuffer, ParameterError
 def test01_layers_are_contiguous_and_typed():
     z = np.arange(12, dtype=np.float64).reshape(3, 4).T  # non-contiguous, float64
     ids = np.arange(12, dtype=np.int64).reshape(4, 3)
-    gb = GBuffer({"Z": z, "object_id": ids, "mask": ids > 3})
+    gb = GBuffer({"Z": z, "object_id.V": ids, "mask": ids > 3})
     assert gb.shape == (4, 3) and gb.width == 3 and gb.height == 4
-    assert gb["Z"].dtype == np.float32 and gb["Z"].flags["C_CONTIGUOUS"]
-    assert gb["object_id"].dtype == np.uint32
-    assert gb["mask"].dtype == np.uint32  # unknown integer-like layers become uint32
-    np.testing.assert_array_equal(gb["Z"], z)
+    assert gb.numpy("Z").dtype == np.float32 and gb.numpy("Z").flags["C_CONTIGUOUS"]
+    assert gb.numpy("object_id.V").dtype == np.uint32
+    assert gb.numpy("mask").dtype == np.uint32  # unknown integer-like layers become uint32
+    np.testing.assert_array_equal(gb.numpy("Z"), z)
 
 
 @pytest.mark.parametrize(
@@ -25,8 +25,8 @@ def test01_layers_are_contiguous_and_typed():
     [
         ({"Z": np.zeros((2, 2)), "R": np.zeros((2, 3))}, "shape"),
         ({"Z": np.zeros(4)}, "2-D"),
-        ({"object_id": np.array([[-1, 2]])}, "negative"),
-        ({"object_id": np.array([[0.5, 2.0]])}, "non-integer"),
+        ({"object_id.V": np.array([[-1, 2]])}, "negative"),
+        ({"object_id.V": np.array([[0.5, 2.0]])}, "non-integer"),
         ({}, "at least one layer"),
     ],
 )
@@ -37,12 +37,12 @@ def test02_bad_layers_name_the_problem(layers, message):
 
 def test03_with_layers_returns_a_new_buffer():
     gb = GBuffer({"Z": np.ones((2, 2))}, objects={1: "a"})
-    gb2 = gb.with_layers({"lines": np.zeros((2, 2))})
-    assert "lines" in gb2 and "lines" not in gb
-    assert gb2.objects == {1: "a"} and gb2.names == ("Z", "lines")
-    assert gb2.without("lines") == gb
+    gb2 = gb.with_layers({"lines.V": np.zeros((2, 2))})
+    assert "lines.V" in gb2 and "lines.V" not in gb
+    assert gb2.objects == {1: "a"} and gb2.names == ("Z", "lines.V")
+    assert gb2.without("lines.V") == gb
     with pytest.raises(KeyError, match=r"no layer .N.X.*Z, lines"):
-        gb2["N.X"]
+        gb2.numpy("N.X")
     with pytest.raises(ParameterError, match="background"):
         GBuffer({"Z": np.ones((1, 1))}, objects={0: "bg"})
 
@@ -68,11 +68,11 @@ def test05_camera_dict_round_trip():
 def test06_accepts_drjit_tensors_without_copy():
     t = mi_npr.mi.TensorXf(np.arange(6, dtype=np.float32).reshape(2, 3))
     gb = GBuffer({"Z": t})
-    np.testing.assert_array_equal(gb["Z"], [[0, 1, 2], [3, 4, 5]])
+    np.testing.assert_array_equal(gb.numpy("Z"), [[0, 1, 2], [3, 4, 5]])
 
 
 def test07_object_lookup():
-    gb = GBuffer({"object_id": np.zeros((1, 1), np.uint32)}, objects={2: "b", 1: "a"})
+    gb = GBuffer({"object_id.V": np.zeros((1, 1), np.uint32)}, objects={2: "b", 1: "a"})
     assert list(gb.objects) == [1, 2]
     assert gb.object_name(0) == "background" and gb.object_name(2) == "b"
     assert gb.find_object("b") == 2

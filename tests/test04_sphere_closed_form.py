@@ -88,19 +88,19 @@ def test01_ids_and_depth_match_closed_form(write_scene, case):
     path = _sphere_scene(write_scene, case)
     gb = mi_npr.render(path)
     mask, Z, P, N, outline = analytic_sphere(**case)
-    ids = gb["object_id"]
+    ids = gb.numpy("object_id.V")
     assert gb.objects == {1: "ball"}
     wrong = (ids == 1) != mask
     assert not np.any(wrong & (outline > 1e-4)), "id differs away from the outline"
     both = mask & (ids == 1)
-    np.testing.assert_allclose(gb["Z"][both], Z[both], rtol=1e-4)
-    assert np.all(np.isposinf(gb["Z"][ids == 0]))
+    np.testing.assert_allclose(gb.numpy("Z")[both], Z[both], rtol=1e-4)
+    assert np.all(np.isposinf(gb.numpy("Z")[ids == 0]))
     for i, name in enumerate(mi_npr.layers.P):
-        np.testing.assert_allclose(gb[name][both], P[both][:, i], atol=1e-4 * Z[both].max())
-        assert np.all(gb[name][ids == 0] == 0)
+        np.testing.assert_allclose(gb.numpy(name)[both], P[both][:, i], atol=1e-4 * Z[both].max())
+        assert np.all(gb.numpy(name)[ids == 0] == 0)
     for i, name in enumerate(mi_npr.layers.N):
-        np.testing.assert_allclose(gb[name][both], N[both][:, i], atol=2e-3)
-        assert np.all(gb[name][ids == 0] == 0)
+        np.testing.assert_allclose(gb.numpy(name)[both], N[both][:, i], atol=2e-3)
+        assert np.all(gb.numpy(name)[ids == 0] == 0)
 
 
 def test02_pixel_centre_rays_equal_scene_ray_intersect(write_scene):
@@ -118,13 +118,13 @@ def test02_pixel_centre_rays_equal_scene_ray_intersect(write_scene):
     T = sensor.world_transform()
     depth = dr.dot(si.p - T @ mi.Point3f(0, 0, 0), dr.normalize(T @ mi.Vector3f(0, 0, 1)))
     depth = np.where(si.is_valid().numpy(), depth.numpy(), np.inf).reshape(h, w)
-    np.testing.assert_allclose(gb["Z"], depth, rtol=1e-5)
+    np.testing.assert_allclose(gb.numpy("Z"), depth, rtol=1e-5)
     hit = si.is_valid().numpy().reshape(h, w)
-    np.testing.assert_array_equal(gb["object_id"], hit.astype(np.uint32))
+    np.testing.assert_array_equal(gb.numpy("object_id.V"), hit.astype(np.uint32))
     # Z is along the view axis, not along the ray: t * cos(angle) + the near-clip offset.
     cos = dr.dot(ray.d, dr.normalize(T @ mi.Vector3f(0, 0, 1))).numpy().reshape(h, w)
     t = si.t.numpy().reshape(h, w)
-    np.testing.assert_allclose(gb["Z"][hit], (t * cos)[hit] + sensor.near_clip(), rtol=1e-5)
+    np.testing.assert_allclose(gb.numpy("Z")[hit], (t * cos)[hit] + sensor.near_clip(), rtol=1e-5)
 
 
 def test03_scalar_variant_gets_one_line_error(write_scene):
@@ -153,5 +153,5 @@ def test04_cuda_variant_matches_llvm(write_scene):
     except mi_npr.ParameterError as e:
         pytest.skip(f"CUDA unavailable here: {e}")
     cuda = mi_npr.render(path)
-    np.testing.assert_array_equal(cuda["object_id"], llvm["object_id"])
-    np.testing.assert_allclose(cuda["Z"], llvm["Z"], rtol=1e-5)
+    np.testing.assert_array_equal(cuda.numpy("object_id.V"), llvm.numpy("object_id.V"))
+    np.testing.assert_allclose(cuda.numpy("Z"), llvm.numpy("Z"), rtol=1e-5)

@@ -56,13 +56,13 @@ def test01_ids_equal_brute_force_whatever_the_film(write_scene, spp, rfilter):
     )
     scene = mi_npr.load_scene(path)
     gb = mi_npr.render(scene)
-    np.testing.assert_array_equal(gb["object_id"], brute_force_ids(path, gb.objects))
-    assert set(np.unique(gb["object_id"])) <= {0, *gb.objects}
+    np.testing.assert_array_equal(gb.numpy("object_id.V"), brute_force_ids(path, gb.objects))
+    assert set(np.unique(gb.numpy("object_id.V"))) <= {0, *gb.objects}
     # The tensor Mitsuba's own mi.render returns holds the same exact integers.
     img = np.asarray(mi_npr.mi.render(scene).numpy())
     names = ["R", "G", "B", *scene.integrator().aov_names()]
-    ids = img[..., names.index("object_id")]
-    np.testing.assert_array_equal(ids, gb["object_id"].astype(np.float32))
+    ids = img[..., names.index("object_id.V")]
+    np.testing.assert_array_equal(ids, gb.numpy("object_id.V").astype(np.float32))
 
 
 def test02_same_ids_when_the_xml_order_changes(write_scene):
@@ -74,8 +74,8 @@ def test02_same_ids_when_the_xml_order_changes(write_scene):
     assert {"ball", "box"} <= set(a.objects.values())
     unnamed = [n for n in a.objects.values() if n.startswith("rectangle_")]
     assert len(unnamed) == 2
-    np.testing.assert_array_equal(a["object_id"], b["object_id"])
-    np.testing.assert_array_equal(a["object_id"], c["object_id"])
+    np.testing.assert_array_equal(a["object_id.V"], b["object_id.V"])
+    np.testing.assert_array_equal(a["object_id.V"], c["object_id.V"])
 
 
 def test03_identical_unnamed_shapes_get_distinct_names(write_scene):
@@ -96,15 +96,15 @@ def test04_prim_id_is_the_triangle_index(write_scene):
     ply = write_ply(write_scene("", name="unused.xml").parent / "s.ply", *uv_sphere(12, 8))
     scene = mi_npr.load_scene(write_scene(body.format(ply), width=40, height=30))
     gb = mi_npr.render(scene)
-    hit = gb["object_id"] > 0
-    prims = np.unique(gb["prim_id"][hit])
+    hit = gb.numpy("object_id.V") > 0
+    prims = np.unique(gb.numpy("prim_id.V")[hit])
     assert len(prims) > 20 and prims.max() < 2 * 12 * 7
     # The hit triangle really contains the hit point (barycentric test on the mesh data).
     mesh = scene.shapes()[0]
     V = mi.traverse(mesh)["vertex_positions"].numpy().reshape(-1, 3)
     F = mi.traverse(mesh)["faces"].numpy().reshape(-1, 3)
     P = gb.positions[hit]
-    tri = V[F[gb["prim_id"][hit]]]
+    tri = V[F[gb.numpy("prim_id.V")[hit]]]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     dist = np.abs(np.einsum("ij,ij->i", P - tri[:, 0], n)) / np.linalg.norm(n, axis=1)
     assert dist.max() < 1e-4

@@ -25,7 +25,7 @@ def test01_mi_render_returns_beauty_then_aovs(write_scene):
     gb = mi_npr.render(scene, seed=3)
     a = img.numpy()
     for i, name in enumerate([*L.RGB, *L.GBUFFER_AOVS]):
-        np.testing.assert_array_equal(a[..., i], gb[name].astype(np.float32), err_msg=name)
+        np.testing.assert_array_equal(a[..., i], gb.numpy(name).astype(np.float32), err_msg=name)
 
 
 def test02_beauty_is_the_nested_integrators_render(write_scene):
@@ -39,8 +39,8 @@ def test02_beauty_is_the_nested_integrators_render(write_scene):
 
 def test03_headlight_without_nested_integrator(write_scene):
     gb = mi_npr.render(write_scene(BALL))
-    hit = gb["object_id"] == 1
-    assert np.all(gb["R"][hit] > gb["G"][hit])  # the ball's red albedo shows
+    hit = gb.numpy("object_id.V") == 1
+    assert np.all(gb.numpy("R")[hit] > gb.numpy("G")[hit])  # the ball's red albedo shows
     assert np.all(gb.beauty[~hit] == 0)
     assert gb.metadata["mi_npr/beauty"] == "headlight"
 
@@ -50,8 +50,8 @@ def test04_spp_override(write_scene):
     one = mi_npr.render(scene)
     many = mi_npr.render(scene, spp=64)
     assert many.metadata["mi_npr/spp"] == "64" and one.metadata["mi_npr/spp"] == "1"
-    edge = mi_npr.render(scene)["object_id"]
-    np.testing.assert_array_equal(edge, many["object_id"])  # ids do not depend on spp
+    edge = mi_npr.render(scene)["object_id.V"]
+    np.testing.assert_array_equal(edge, many["object_id.V"])  # ids do not depend on spp
     assert not np.array_equal(one.beauty, many.beauty)
     with pytest.raises(mi_npr.ParameterError, match="spp"):
         mi_npr.render(scene, spp=0)
@@ -102,5 +102,5 @@ def test07_to_string_and_sample_fallback(write_scene):
     sampler.seed(0, 2)
     _color, _valid, aovs = integ.sample(scene, sampler, mi.RayDifferential3f(ray))
     assert len(aovs) == len(integ.aov_names())
-    ids = aovs[integ.aov_names().index("object_id")].numpy()
+    ids = aovs[integ.aov_names().index("object_id.V")].numpy()
     np.testing.assert_array_equal(ids, [1, 0])

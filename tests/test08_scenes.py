@@ -31,7 +31,7 @@ def test02_every_scene_declares_defaults_and_renders(name):
     gb = mi_npr.render(path, width=24, height=18, spp=2)
     assert gb.shape == (18, 24)
     assert len(gb.objects) >= 2
-    assert set(np.unique(gb["object_id"])) <= {0, *gb.objects}
+    assert set(np.unique(gb.numpy("object_id.V"))) <= {0, *gb.objects}
     assert np.isfinite(gb.beauty).all() and gb.beauty.max() > 0
 
 
@@ -40,13 +40,13 @@ def test03_scene1_and_scene2_differ_only_in_materials():
     two = mi_npr.render(SCENES / "scene2.xml", width=40, height=30, spp=2)
     assert one.objects == two.objects
     for name in mi_npr.layers.GBUFFER_AOVS:
-        np.testing.assert_array_equal(one[name], two[name], err_msg=name)
+        np.testing.assert_array_equal(one.numpy(name), two.numpy(name), err_msg=name)
     assert not np.array_equal(one.beauty, two.beauty)
 
 
 def test04_scene3_hides_one_object_and_shows_one_through_a_gap():
     gb = mi_npr.render(SCENES / "scene3.xml", width=80, height=60, spp=1)
-    ids = gb["object_id"]
+    ids = gb.numpy("object_id.V")
     assert not np.any(ids == gb.find_object("sphere_hidden"))
     gap = ids == gb.find_object("cube_in_gap")
     assert gap.any()

@@ -17,25 +17,27 @@ def sat(x):
     return min(max(x, 0.0), 1.0)
 
 
-def clean_depth(d):
-    """The documented policy: NaN is background (1), depth is clamped to [0, 1]."""
-    return 1.0 if math.isnan(d) else min(max(float(d), 0.0), 1.0)
+def clean_depth(d, top=1.0):
+    """The documented policy: NaN is background (1), depth is clamped to [0, 1] (``top``: the
+    lines chain's background lies at 2, see test 16)."""
+    return top if math.isnan(d) else min(max(float(d), 0.0), top)
 
 
-def ref_contours(D, c, t):
+def ref_contours(D, c, t, top=1.0):
     """p0 = max_i sat((d_i - d0) c - t) over the 8 neighbours; outside repeats the border."""
     D = np.asarray(D, dtype=np.float64)
     h, w = D.shape
     out = np.zeros((h, w))
     for y in range(h):
         for x in range(w):
-            d0 = clean_depth(D[y, x])
+            d0 = clean_depth(D[y, x], top)
             best = 0.0
             for dy in (-1, 0, 1):
                 for dx in (-1, 0, 1):
                     if (dy, dx) == (0, 0):
                         continue
-                    di = clean_depth(D[min(max(y + dy, 0), h - 1), min(max(x + dx, 0), w - 1)])
+                    di = D[min(max(y + dy, 0), h - 1), min(max(x + dx, 0), w - 1)]
+                    di = clean_depth(di, top)
                     best = max(best, sat((di - d0) * c - t))
             out[y, x] = best
     return out

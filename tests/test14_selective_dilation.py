@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -13,40 +14,37 @@ RNG = np.random.default_rng(14)
 SIZES = [(1, 1), (1, 9), (9, 1), (7, 5), (64, 48)]
 
 
-def clean_depth(d):
-    return 1.0 if math.isnan(d) else min(max(float(d), 0.0), 1.0)
+def clean_depth(d, top=1.0):
+    return top if math.isnan(d) else min(max(float(d), 0.0), top)
 
 
-def ref_selective_dilation(D, n=3, iterations=1):
+def ref_selective_dilation(D, n=3, iterations=1, top=1.0):
     """On R = 1 - D with an n x n window S (clamped at the border): m = mean over S, Na = number
     of the n*n - 1 neighbours with R > m; R <- max_S R where Na > (n*n - 1) / 2. Returns 1 - R.
 
-    In float32, summing the window row by row like the kernel: on piecewise-constant depth the
-    mean can equal a neighbour exactly, and only the same rounding gives the same ``R > m``.
+    In exact rational arithmetic on the float32 depths (``R_i > m`` is ``d_i < mean(d)``), so
+    ties are ties (issue 18). ``top``: NaN reads as it and depth is clamped to [0, top].
     """
-    f32 = np.float32
-    R = f32(1) - np.vectorize(clean_depth)(np.asarray(D, dtype=np.float64)).astype(f32)
-    h, w = R.shape
+    d = np.vectorize(lambda v: clean_depth(v, top))(np.asarray(D, dtype=np.float64))
+    d = d.astype(np.float32)
+    h, w = d.shape
     r = n // 2
     for _ in range(iterations):
-        new = R.copy()
+        new = d.copy()
         for y in range(h):
             for x in range(w):
                 vals = [
-                    R[min(max(y + dy, 0), h - 1), min(max(x + dx, 0), w - 1)]
+                    d[min(max(y + dy, 0), h - 1), min(max(x + dx, 0), w - 1)]
                     for dy in range(-r, r + 1)
                     for dx in range(-r, r + 1)
                 ]
-                total = f32(0)
-                for v in vals:
-                    total = f32(total + v)
-                m = f32(total * f32(1.0 / len(vals)))
+                mean = sum(Fraction(float(v)) for v in vals) / len(vals)
                 centre = vals.pop(len(vals) // 2)
-                n_above = sum(v > m for v in vals)
+                n_above = sum(Fraction(float(v)) < mean for v in vals)
                 if n_above > len(vals) / 2:
-                    new[y, x] = max(*vals, centre)
-        R = new
-    return 1.0 - R.astype(np.float64)
+                    new[y, x] = min(*vals, centre)
+        d = new
+    return d.astype(np.float64)
 
 
 @pytest.mark.parametrize("shape", SIZES)
@@ -112,3 +110,14 @@ def test07_nan_and_inf_never_spread():
     got = np.asarray(selective_dilation(D, 3, 2))
     assert np.all(np.isfinite(got))
     np.testing.assert_allclose(got, ref_selective_dilation(D, 3, 2), atol=1e-6)
+
+
+def test08_exact_ties_are_not_float32_rounding():
+    """Issue 18: seven neighbours at x, one at x - 1/8, the centre at x + 1/8. The mean is x
+    exactly, so only one neighbour is nearer than the mean and the centre keeps its depth; a
+    float32 mean (rounded below x in R) counted all seven as above and dilated the pixel."""
+    x = np.float32(0.7276081442832947)
+    D = np.full((3, 3), x, np.float32)
+    D[1, 1], D[0, 0] = x + np.float32(0.125), x - np.float32(0.125)
+    assert float(np.asarray(selective_dilation(D))[1, 1]) == float(D[1, 1])
+    np.testing.assert_array_equal(np.asarray(selective_dilation(D)), ref_selective_dilation(D))

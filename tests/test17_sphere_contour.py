@@ -39,7 +39,7 @@ def test01_sphere_contour_is_one_pixel_inside_the_mask(write_scene, width, heigh
     ball = gb.object_id == gb.find_object("ball")
     # Against the background the frame's range ends at the sphere's rim: give a far plane.
     far = None if backdrop == "wall" else 20.0
-    p = np.asarray(K.depth_contours(K.normalize_depth(gb["Z"], far=far), C, T))
+    p = np.asarray(K.depth_contours(K.normalize_depth(gb.numpy("Z"), far=far), C, T))
     lit = p > 0
     rim8, rim4 = _boundaries(ball)
     assert not (lit & ~ball).any()  # inside the sphere's mask
@@ -52,11 +52,12 @@ def test02_frame_range_loses_the_farthest_rim(write_scene):
     """The documented caveat of the default normalisation: the farthest object pixel gets the
     background's depth 1, so its contour against the background vanishes; ``far`` fixes it."""
     gb = mi_npr.render(write_scene(BALL, width=64, height=48))
-    z = np.where(np.isfinite(gb["Z"]), gb["Z"], -np.inf)
+    z = np.where(np.isfinite(gb.numpy("Z")), gb.numpy("Z"), -np.inf)
     farthest = np.unravel_index(np.argmax(z), z.shape)
-    frame = np.asarray(K.depth_contours(K.normalize_depth(gb["Z"]), C, T))
-    fixed = np.asarray(K.depth_contours(K.normalize_depth(gb["Z"], far=20.0), C, T))
+    frame = np.asarray(K.depth_contours(K.normalize_depth(gb.numpy("Z")), C, T))
+    fixed = np.asarray(K.depth_contours(K.normalize_depth(gb.numpy("Z"), far=20.0), C, T))
     assert frame[farthest] == 0.0 and fixed[farthest] == 1.0
+    assert np.asarray(K.lines(gb))[farthest] == 1.0  # the chain's background is beyond (issue 18)
 
 
 def test03_lines_of_a_box_in_front_of_a_wall(write_scene):

@@ -20,15 +20,15 @@ def test01_exr_has_lines_and_png_is_the_composited_beauty(tmp_path, capsys):
     out = tmp_path / "out"
     assert cli.main(["render", str(scene), "-o", str(out), "--no-progress"]) == 0
     gb = read_exr(out / "ball.exr")
-    assert gb[L.LINES].dtype == np.float32 and gb[L.LINES].max() == 1.0
+    assert gb.numpy(L.LINES).dtype == np.float32 and gb.numpy(L.LINES).max() == 1.0
     assert set(L.RAW_RGB) <= set(gb.names) and gb.metadata["mi_npr/integrator"] == "npr_lines"
     png = np.asarray(Image.open(out / "ball.png"))
     np.testing.assert_array_equal(png, to_rgb8(gb.beauty))  # R G B: with the lines
-    drawn = gb[L.LINES] == 1.0
+    drawn = gb.numpy(L.LINES) == 1.0
     assert np.all(png[drawn] == (0, 0, 255))
     raw = to_rgb8(gb.stack(L.RAW_RGB))
     assert not np.array_equal(png, raw) and np.array_equal(
-        png[~(gb[L.LINES] > 0)], raw[~(gb[L.LINES] > 0)]
+        png[~(gb.numpy(L.LINES) > 0)], raw[~(gb.numpy(L.LINES) > 0)]
     )
     assert cli.main(["info", str(out / "ball.exr")]) == 0
     info = capsys.readouterr().out
@@ -41,7 +41,7 @@ def test02_paper_scene_with_define(tmp_path, scenes):
     proc = run_cli("render", str(scenes / "scene3.xml"), "-o", str(out), "--no-progress", *args)
     assert proc.returncode == 0, proc.stderr
     gb = read_exr(out / "scene3.exr")
-    assert gb[L.LINES].any() and gb.shape == (36, 48)
+    assert gb.numpy(L.LINES).any() and gb.shape == (36, 48)
     assert gb.metadata["mi_npr/integrator"] == "npr_lines"
 
 

@@ -165,7 +165,7 @@ def test07_input_types_and_errors():
     a = trace(ids)
     assert trace(ids.astype(np.int64)) == a and trace(ids.astype(np.uint8)) == a
     assert trace(ids[..., None]) == a
-    gb = mi_npr.GBuffer({"object_id": ids.astype(np.uint32)}, objects={3: "ball"})
+    gb = mi_npr.GBuffer({"object_id.V": ids.astype(np.uint32)}, objects={3: "ball"})
     (c,) = trace(gb)
     assert c.name == "ball" and c.object_id == 3
     assert trace(ids, objects={3: "x"})[0].name == "x" and a[0].name == "object_3"

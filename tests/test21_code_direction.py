@@ -67,7 +67,8 @@ def test02_equals_reference_on_random_maps(seed):
         for b, c in zip(border, walks, strict=True):
             chain, closed = reference_walk(ids, tuple(b.points[0].tolist()))
             assert c.points.tolist() == [list(p) for p in chain]
-            assert c.closed == closed and c.object_id == b.object_id
+            whole = set(map(tuple, b.points.tolist())) <= set(chain)  # issue 18
+            assert c.closed == (closed and whole) and c.object_id == b.object_id
             assert mask[c.ys, c.xs].all()  # it never takes a pixel that is not a contour pixel
             if len(c) > 1:
                 assert (np.abs(np.diff(c.points, axis=0)).max(axis=1) == 1).all()
@@ -107,3 +108,23 @@ def test05_single_pixel_and_two_pixels_are_closed():
     ids[1, 2] = 5
     (c,) = trace(ids, method="code_direction")
     assert c.closed and len(c) == 2
+
+
+def test08_stopping_next_to_the_start_is_not_closing():
+    """Issue 18: a walk that dead-ends next to its departure pixel after skipping part of its
+    piece is open; closed walks hold every pixel of the piece's border."""
+    rng = np.random.default_rng(1818)
+    found = 0
+    for _ in range(400):
+        h, w = (int(v) for v in rng.integers(3, 16, 2))
+        ids = (rng.random((h, w)) < 0.55).astype(np.uint32)
+        for b, c in zip(trace(ids), trace(ids, method="code_direction"), strict=True):
+            piece = set(map(tuple, b.points.tolist()))
+            got = set(map(tuple, c.points.tolist()))
+            if c.closed:
+                assert piece <= got
+            _, ends_near = reference_walk(ids, tuple(b.points[0].tolist()))
+            if ends_near and not piece <= got:
+                found += 1
+                assert not c.closed
+    assert found > 0  # the case exists on such inputs

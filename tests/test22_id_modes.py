@@ -92,11 +92,11 @@ def test04_layers_and_rays_agree(mode):
     idx = np.arange(w * h)
     ray = pixel_rays(scene.sensors()[0], mi.Float(idx % w + 0.5), mi.Float(idx // w + 0.5))
     got = ids.lookup(scene.ray_intersect_preliminary(ray, coherent=True)).numpy().reshape(h, w)
-    np.testing.assert_array_equal(got, ids.apply(gb["object_id"], gb["prim_id"]))
+    np.testing.assert_array_equal(got, ids.apply(gb.numpy("object_id.V"), gb.numpy("prim_id.V")))
     assert set(np.unique(got)) <= {0, *ids.names}
     if mode == "primitive":
-        sphere = gb["object_id"] == gb.find_object("sphere_mesh")
-        np.testing.assert_array_equal(got[sphere], gb["prim_id"][sphere] + 3)
+        sphere = gb.numpy("object_id.V") == gb.find_object("sphere_mesh")
+        np.testing.assert_array_equal(got[sphere], gb.numpy("prim_id.V")[sphere] + 3)
     dr.eval()
 
 
@@ -130,7 +130,7 @@ def test05_component_separates_the_cube(tmp_path, write_scene):
 
 def test06_mode_ids_without_scene():
     gb = mi_npr.GBuffer(
-        {"object_id": np.array([[0, 1]], np.uint32), "prim_id": np.zeros((1, 2), np.uint32)},
+        {"object_id.V": np.array([[0, 1]], np.uint32), "prim_id.V": np.zeros((1, 2), np.uint32)},
         objects={1: "a"},
     )
     ids, names = mode_ids(gb)

@@ -31,23 +31,27 @@ def _gb():
 def test01_overlay_draws_red_on_contour_pixels_only():
     gb = _gb()
     out, contours = overlay(gb)
-    layer = out[L.CONTOUR]
+    layer = out.numpy(L.CONTOUR)
     assert layer.dtype == np.uint32
     ref = np.zeros_like(layer)
     for c in trace(gb):
         ref[c.ys, c.xs] = c.object_id
     np.testing.assert_array_equal(layer, ref)
     on = layer != 0
-    assert np.all(out["R"][on] == 1) and np.all(out["G"][on] == 0) and np.all(out["B"][on] == 0)
-    assert np.all(out["R"][~on] == 0.25) and np.all(out["G"][~on] == 0.25)
-    np.testing.assert_array_equal(out["beauty.R"], gb["R"])  # the raw beauty is kept
+    assert (
+        np.all(out.numpy("R")[on] == 1)
+        and np.all(out.numpy("G")[on] == 0)
+        and np.all(out.numpy("B")[on] == 0)
+    )
+    assert np.all(out.numpy("R")[~on] == 0.25) and np.all(out.numpy("G")[~on] == 0.25)
+    np.testing.assert_array_equal(out.numpy("beauty.R"), gb.numpy("R"))  # the raw beauty is kept
     assert out.metadata["mi_npr/contour_method"] == "border"
     assert out.metadata["mi_npr/contour_id_mode"] == "shape"
     assert out.metadata["mi_npr/contour_objects"] == '{"1": "a & <b>", "2": "2nd one"}'
     # Again with another colour: replaces, does not stack.
     again, _ = overlay(out, color=(0, 0, 1))
-    assert np.all(again["R"][on] == 0) and np.all(again["B"][on] == 1)
-    assert np.all(again["R"][~on] == 0.25)
+    assert np.all(again.numpy("R")[on] == 0) and np.all(again.numpy("B")[on] == 1)
+    assert np.all(again.numpy("R")[~on] == 0.25)
     assert len(contours) == 3
 
 
@@ -57,7 +61,7 @@ def test02_overlay_code_direction_layer_is_its_points():
     pts = np.zeros(gb.shape, bool)
     for c in contours:
         pts[c.ys, c.xs] = True
-    np.testing.assert_array_equal(out[L.CONTOUR] != 0, pts)
+    np.testing.assert_array_equal(out.numpy(L.CONTOUR) != 0, pts)
     with pytest.raises(mi_npr.ParameterError, match="method"):
         overlay(gb, method="x")
 
@@ -81,11 +85,11 @@ def test03_svg_parses_and_groups_per_object():
     assert d.startswith("M 1.5 2.5 L 2.5 2.5") and d.endswith(" Z")
     nums = [float(v) for v in d.replace("M", "").replace("L", "").replace("Z", "").split()]
     np.testing.assert_array_equal(np.reshape(nums, (-1, 2)) - 0.5, contours[0].points)
-    image = root.find(f"{SVG}image")
+    image = root.find(f".//{SVG}image")
     href = image.get("href")
     png = Image.open(io.BytesIO(base64.b64decode(href.split(",", 1)[1])))
     assert png.size == (12, 10) and png.mode == "RGB"
-    assert root.find(f"{SVG}g").get("stroke") == "#ff0000"
+    assert root.find(f"{SVG}g[@id='contours']").get("stroke") == "#ff0000"
 
 
 def test04_svg_options_and_odd_names(tmp_path):
@@ -101,14 +105,14 @@ def test04_svg_options_and_odd_names(tmp_path):
     root = ET.parse(path).getroot()  # well-formed
     names = [g.get("data-name") for g in root.findall(f"{SVG}g/{SVG}g")]
     assert names[3] == "tab\tbell\ufffd <&>" and root.find(f"{SVG}title").text == "a\ufffd & b"
-    assert root.find(f"{SVG}image") is None
+    assert root.find(f".//{SVG}image") is None
     ids = [g.get("id") for g in root.findall(f"{SVG}g/{SVG}g")]
     assert len(set(ids)) == 4 and "beauty" not in ids  # the image's id stays unique
     paths = root.findall(f".//{SVG}path")
     assert paths[0].get("d") == "M 0.5 0.5 Z" and not paths[1].get("d").endswith("Z")
-    assert root.find(f"{SVG}g").get("stroke") == "#00ff00"
-    assert root.find(f"{SVG}g").get("stroke-width") == "2"
+    assert root.find(f"{SVG}g[@id='contours']").get("stroke") == "#00ff00"
+    assert root.find(f"{SVG}g[@id='contours']").get("stroke-width") == "2"
     with pytest.raises(mi_npr.ParameterError, match="beauty"):
         svg_document(cs, 5, 5, beauty=np.zeros((4, 5, 3)))
-    with pytest.raises(mi_npr.ParameterError, match="size"):
+    with pytest.raises(mi_npr.ParameterError, match="width"):
         svg_document(cs, 0, 5)

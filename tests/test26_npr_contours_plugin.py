@@ -30,11 +30,11 @@ def test01_mi_render_channels(write_scene):
     assert img.shape == (24, 32, 3 + len(integ.aov_names()))
     gb = mi_npr.render(scene, seed=1)
     for i, name in enumerate([*L.RGB, *integ.aov_names()]):
-        np.testing.assert_array_equal(img[..., i], gb[name].astype(np.float32), err_msg=name)
+        np.testing.assert_array_equal(img[..., i], gb.numpy(name).astype(np.float32), err_msg=name)
     ref = np.zeros(gb.shape, np.uint32)
     for c in trace(gb):
         ref[c.ys, c.xs] = c.object_id
-    np.testing.assert_array_equal(gb[L.CONTOUR], ref)
+    np.testing.assert_array_equal(gb.numpy(L.CONTOUR), ref)
     on = ref != 0
     assert np.all(gb.beauty[on] == [1, 0, 0])
     np.testing.assert_array_equal(gb.stack(L.RAW_RGB)[~on], gb.beauty[~on])
@@ -50,14 +50,14 @@ def test02_parameters(write_scene):
     gb = mi_npr.render(scene)
     assert gb.metadata["mi_npr/contour_method"] == "code_direction"
     assert gb.metadata["mi_npr/contour_id_mode"] == "component"
-    on = gb[L.CONTOUR] != 0
+    on = gb.numpy(L.CONTOUR) != 0
     np.testing.assert_allclose(gb.beauty[on], np.tile([0, 0.5, 1], (on.sum(), 1)))
     assert "method='code_direction'" in str(scene.integrator())
 
 
 def test03_without_nested_integrator(write_scene):
     gb = mi_npr.render(write_scene(BALLS, integrator=_xml(nested="")))
-    assert gb.metadata["mi_npr/beauty"] == "headlight" and (gb[L.CONTOUR] != 0).any()
+    assert gb.metadata["mi_npr/beauty"] == "headlight" and (gb.numpy(L.CONTOUR) != 0).any()
 
 
 @pytest.mark.parametrize(
@@ -81,4 +81,4 @@ def test05_scene_default_switches_integrator():
     gb = mi_npr.render(path, width=48, height=36, spp=1, integrator="npr_contours")
     scene = mi_npr.load_scene(path, width=48, height=36, spp=1)
     ids, _ = mode_ids(gb, scene, "shape")
-    np.testing.assert_array_equal(gb[L.CONTOUR] != 0, mi_npr.contours.contour_mask(ids))
+    np.testing.assert_array_equal(gb.numpy(L.CONTOUR) != 0, mi_npr.contours.contour_mask(ids))

@@ -39,14 +39,14 @@ def test01_writes_png_svg_exr(balls, tmp_path, capsys):
     assert sorted(os.listdir(out)) == ["balls.exr", "balls_contours.png", "balls_contours.svg"]
     gb = read_exr(out / "balls.exr")
     assert {L.CONTOUR, *L.GBUFFER, *L.RAW_RGB} <= set(gb.names)
-    assert gb[L.CONTOUR].dtype == np.uint32 and gb.metadata["mi_npr/spp"] == "3"
-    on = gb[L.CONTOUR] != 0
-    assert set(np.unique(gb[L.CONTOUR][on])) == {1, 2}
+    assert gb.numpy(L.CONTOUR).dtype == np.uint32 and gb.metadata["mi_npr/spp"] == "3"
+    on = gb.numpy(L.CONTOUR) != 0
+    assert set(np.unique(gb.numpy(L.CONTOUR)[on])) == {1, 2}
     png = np.asarray(Image.open(out / "balls_contours.png"))
     assert png.shape == (24, 32, 3) and np.all(png[on] == [255, 0, 0])
     root = ET.parse(out / "balls_contours.svg").getroot()
     assert [g.get("id") for g in root.findall(f"{SVG}g/{SVG}g")] == ["back", "ball"]
-    assert root.find(f"{SVG}image") is not None
+    assert root.find(f".//{SVG}image") is not None
     assert "balls_contours.svg" in capsys.readouterr().out
 
 
@@ -59,7 +59,7 @@ def test02_options(balls, tmp_path):
     gb = read_exr(out / "balls.exr")
     assert gb.metadata["mi_npr/contour_method"] == "code_direction"
     assert gb.metadata["mi_npr/contour_id_mode"] == "primitive"
-    assert ET.parse(out / "balls_contours.svg").getroot().find(f"{SVG}image") is None
+    assert ET.parse(out / "balls_contours.svg").getroot().find(f".//{SVG}image") is None
 
 
 def test03_xml_settings_are_the_defaults(tmp_path):
@@ -88,7 +88,11 @@ def test05_cli_choices_are_the_librarys():
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command").choices["contours"]
     choices = {a.dest: tuple(a.choices) for a in sub._actions if a.choices}
-    assert choices == {"method": mi_npr.contours.METHODS, "id_mode": mi_npr.contours.ID_MODES}
+    assert choices == {
+        "method": mi_npr.contours.METHODS,
+        "id_mode": mi_npr.contours.ID_MODES,
+        "svg_image": mi_npr.io.svg.SVG_IMAGE,
+    }
 
 
 def test06_paper_scene(tmp_path):
@@ -96,4 +100,4 @@ def test06_paper_scene(tmp_path):
     args = ["contours", str(SCENES / "scene1.xml"), "-o", str(out), "-D", "width=64"]
     assert cli.main([*args, "-D", "height=48", "--spp", "1"]) == 0
     gb = read_exr(out / "scene1.exr")
-    assert gb.shape == (48, 64) and (gb[L.CONTOUR] != 0).sum() > 100
+    assert gb.shape == (48, 64) and (gb.numpy(L.CONTOUR) != 0).sum() > 100

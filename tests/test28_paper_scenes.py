@@ -16,7 +16,7 @@ def test01_scene1_and_scene2_same_contours():
     """Contours come from the scene, not the image: reflections/refractions change nothing."""
     one = mi_npr.render(SCENES / "scene1.xml", integrator="npr_contours", **SMALL)
     two = mi_npr.render(SCENES / "scene2.xml", integrator="npr_contours", **SMALL)
-    np.testing.assert_array_equal(one["contour"], two["contour"])
+    np.testing.assert_array_equal(one.numpy("contour.V"), two.numpy("contour.V"))
     assert not np.array_equal(one.beauty, two.beauty)
     a, b = trace(one), trace(two)
     assert len(a) == len(b) and all(x == y for x, y in zip(a, b, strict=True))
@@ -57,7 +57,7 @@ def test04_scene4_intersections_are_contours():
     """Where objects interpenetrate, the crease is a contour of both."""
     gb = mi_npr.render(SCENES / "scene4.xml", **SMALL)
     out, contours = overlay(gb)
-    ids, layer = gb.object_id, out["contour"]
+    ids, layer = gb.object_id, out.numpy("contour.V")
     a, b = gb.find_object("sphere_in_box"), gb.find_object("box_a")
     touching = (ids[:, :-1] == a) & (ids[:, 1:] == b) | (ids[:, :-1] == b) & (ids[:, 1:] == a)
     assert touching.any()

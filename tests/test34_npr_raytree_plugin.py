@@ -36,10 +36,10 @@ def test01_mi_render_returns_beauty_then_aovs(write_scene):
     gb = mi_npr.render(scene, seed=2)
     for i, name in enumerate([*L.RGB, *names]):
         # integer layers become float32 in the tensor (the 32-bit hash halves are rounded)
-        np.testing.assert_array_equal(img[..., i], gb[name].astype(np.float32), err_msg=name)
+        np.testing.assert_array_equal(img[..., i], gb.numpy(name).astype(np.float32), err_msg=name)
     assert gb.metadata["mi_npr/integrator"] == "npr_raytree"
     assert gb.metadata["mi_npr/raytree_max_depth"] == "3"
-    assert gb[L.RAYTREE_HI].dtype == np.uint32 and gb[L.EDGES_REAL].dtype == np.float32
+    assert gb.numpy(L.RAYTREE_HI).dtype == np.uint32 and gb.numpy(L.EDGES_REAL).dtype == np.float32
 
 
 def test02_overlay_colours_over_the_raw_beauty(write_scene):
@@ -50,7 +50,7 @@ def test02_overlay_colours_over_the_raw_beauty(write_scene):
     np.testing.assert_array_equal(raw, np.asarray(ref.numpy())[..., :3])
     drawn = np.zeros(gb.shape, bool)
     for name, color in COLORS.items():
-        m = gb[name] > 0
+        m = gb.numpy(name) > 0
         assert m.any(), name  # the scene shows every class
         np.testing.assert_array_equal(gb.beauty[m], np.broadcast_to(color, (m.sum(), 3)))
         drawn |= m
@@ -62,13 +62,13 @@ def test03_max_depth_parameter(write_scene):
     one = mi_npr.render(one_xml)
     three = mi_npr.render(write_scene(SCENE, integrator=raytree_integrator(), name="three.xml"))
     assert one.metadata["mi_npr/raytree_max_depth"] == "1"
-    assert not one[L.EDGES_REFLECTION].any() and not one[L.EDGES_REFRACTION].any()
-    assert three[L.EDGES_REFLECTION].any() and three[L.EDGES_REFRACTION].any()
-    np.testing.assert_array_equal(one[L.EDGES_REAL], three[L.EDGES_REAL])
+    assert not one.numpy(L.EDGES_REFLECTION).any() and not one.numpy(L.EDGES_REFRACTION).any()
+    assert three.numpy(L.EDGES_REFLECTION).any() and three.numpy(L.EDGES_REFRACTION).any()
+    np.testing.assert_array_equal(one.numpy(L.EDGES_REAL), three.numpy(L.EDGES_REAL))
     # mi_npr.raytree.render reads the scene's max_depth, or takes its own
     assert mi_npr.raytree.render(one_xml) == one
     deeper = mi_npr.raytree.render(one_xml, max_depth=3)
-    np.testing.assert_array_equal(deeper[L.EDGES_REFRACTION], three[L.EDGES_REFRACTION])
+    np.testing.assert_array_equal(deeper.numpy(L.EDGES_REFRACTION), three.numpy(L.EDGES_REFRACTION))
 
 
 @pytest.mark.parametrize(
@@ -96,7 +96,7 @@ def test05_raytree_render_on_any_scene(write_scene):
     scene = mi_npr.load_scene(plain)
     lay = raytree_layers(scene, 0, 3)
     for name in LAYERS:
-        np.testing.assert_array_equal(gb[name], lay[name], err_msg=name)
+        np.testing.assert_array_equal(gb.numpy(name), lay[name], err_msg=name)
     headlight = mi_npr.raytree.render(write_scene(SCENE, name="gbuf.xml"))  # npr_gbuffer, no beauty
     assert headlight.metadata["mi_npr/beauty"] == "headlight"
     with pytest.raises(mi_npr.ParameterError, match="max_depth"):
@@ -116,7 +116,9 @@ def test07_sample_fallback_and_to_string(write_scene):
     mi = mi_npr.mi
     scene = mi_npr.load_scene(write_scene(SCENE, integrator=raytree_integrator(2)))
     integ = scene.integrator()
-    assert "NprRayTreeIntegrator[beauty=DirectIntegrator, max_depth=2]" in str(integ)
+    assert "NprRayTreeIntegrator[beauty=DirectIntegrator, max_depth=2, cryptomatte=False]" in str(
+        integ
+    )
     ray, _ = scene.sensors()[0].sample_ray(0.0, 0.5, mi.Point2f([0.5], [0.5]), mi.Point2f(0.5))
     sampler = mi.load_dict({"type": "independent"})
     sampler.seed(0, 1)

@@ -31,15 +31,15 @@ def _files(d: Path) -> list[str]:
 def test01_writes_exr_and_overlay_png(glassy, tmp_path):
     out = tmp_path / "out"
     assert cli.main(["raytree", str(glassy), "-o", str(out), "--no-progress"]) == 0
-    assert _files(out) == ["glassy.exr", "glassy_raytree.png"]
+    assert _files(out) == ["glassy.exr", "glassy_raytree.png", "glassy_raytree.svg"]
     gb = read_exr(out / "glassy.exr")
     for name in (L.RAYTREE_HI, L.RAYTREE_LO, *L.EDGES, *L.RAW_RGB, *L.GBUFFER):
         assert name in gb, name
-    assert gb[L.RAYTREE_HI].dtype == np.uint32
+    assert gb.numpy(L.RAYTREE_HI).dtype == np.uint32
     assert gb.metadata["mi_npr/integrator"] == "npr_raytree"
     png = np.asarray(Image.open(out / "glassy_raytree.png"))
     np.testing.assert_array_equal(png, to_rgb8(gb.beauty))
-    real = gb[L.EDGES_REAL] > 0
+    real = gb.numpy(L.EDGES_REAL) > 0
     assert np.all(png[real] == [255, 0, 0])
 
 
@@ -50,7 +50,7 @@ def test02_max_depth_spp_and_defines(glassy, tmp_path):
     assert cli.main(args) == 0
     gb = read_exr(out / "glassy.exr")
     assert gb.metadata["mi_npr/raytree_max_depth"] == "1" and gb.metadata["mi_npr/spp"] == "3"
-    assert not gb[L.EDGES_REFLECTION].any()
+    assert not gb.numpy(L.EDGES_REFLECTION).any()
 
 
 def test03_paper_scenes_with_defines(scenes, tmp_path):
@@ -58,16 +58,23 @@ def test03_paper_scenes_with_defines(scenes, tmp_path):
     args = [str(scenes / "scene1.xml"), str(scenes / "scene2.xml"), "-o", str(out)]
     sizes = ["-D", "width=24", "-D", "height=18", "-D", "spp=1", "--no-progress"]
     assert cli.main(["raytree", *args, *sizes]) == 0
-    assert _files(out) == ["scene1.exr", "scene1_raytree.png", "scene2.exr", "scene2_raytree.png"]
+    assert _files(out) == [
+        "scene1.exr",
+        "scene1_raytree.png",
+        "scene1_raytree.svg",
+        "scene2.exr",
+        "scene2_raytree.png",
+        "scene2_raytree.svg",
+    ]
     one, two = read_exr(out / "scene1.exr"), read_exr(out / "scene2.exr")
-    np.testing.assert_array_equal(one[L.EDGES_REAL], two[L.EDGES_REAL])
+    np.testing.assert_array_equal(one.numpy(L.EDGES_REAL), two.numpy(L.EDGES_REAL))
 
 
 @pytest.mark.parametrize(
     ("extra", "code", "expected"),
     [
-        (["--max-depth", "0"], 2, "not a positive integer"),
-        (["--max-depth", "99"], 1, "max_depth = 99: must be in 1..31"),
+        (["--max-depth", "0"], 2, "argument --max-depth: '0': must be in 1..31"),
+        (["--max-depth", "99"], 2, "argument --max-depth: '99': must be in 1..31"),
         (["-D", "width"], 2, "expected name=value"),
     ],
 )
@@ -84,4 +91,4 @@ def test05_missing_scene_among_others(glassy, tmp_path, capsys):
     code = cli.main(["raytree", str(tmp_path / "nope.xml"), str(glassy), "-o", str(out)])
     err = capsys.readouterr().err
     assert code == 1 and "no such file" in err and "1 of 2 inputs failed" in err
-    assert _files(out) == ["glassy.exr", "glassy_raytree.png"]
+    assert _files(out) == ["glassy.exr", "glassy_raytree.png", "glassy_raytree.svg"]

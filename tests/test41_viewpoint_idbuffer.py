@@ -81,7 +81,7 @@ def brute_numbering(scene):
 def gbuffer_areas(scene, gb):
     """Per-polygon pixel counts of a G-buffer's object_id / prim_id, numbered by hand."""
     table, base, n = brute_numbering(scene)
-    oid, prim = gb["object_id"].ravel(), gb["prim_id"].ravel()
+    oid, prim = gb.numpy("object_id.V").ravel(), gb.numpy("prim_id.V").ravel()
     poly = np.zeros(oid.shape, np.int64)
     for k, s in table.shapes.items():
         sel = oid == k

@@ -199,7 +199,7 @@ def test05_N_is_the_leaf_normal_at_abstraction_0_and_mixes_between(tree_scenes):
     params = mi.traverse(mesh)
     V = np.asarray(params["vertex_positions"], np.float64).reshape(-1, 3)
     Fc = np.asarray(params["faces"]).reshape(-1, 3)
-    tri = Fc[gb0["prim_id"][leaf]]
+    tri = Fc[gb0.numpy("prim_id.V")[leaf]]
     n_geo = np.cross(V[tri[:, 1]] - V[tri[:, 0]], V[tri[:, 2]] - V[tri[:, 0]])
     n_geo /= np.linalg.norm(n_geo, axis=1, keepdims=True)
     F = field_from_json(tree_scenes / "tree_hlps.json")

@@ -87,19 +87,19 @@ def test02_leaf_id_layer_and_npr_lines(files):
     first, more = ids == gb.find_object("leaves"), ids == gb.find_object("more")
     n_first = len(fo.make_leaves(hlps, plant, leaf_size=0.3))
     expected = np.zeros(ids.shape, np.uint32)
-    expected[first] = gb["prim_id"][first] // 2 + 1
-    expected[more] = gb["prim_id"][more] // 2 + 1 + n_first
-    np.testing.assert_array_equal(gb[L.LEAF_ID], expected)
-    assert gb[L.LEAF_ID][first].max() <= n_first < gb[L.LEAF_ID][more].min()
+    expected[first] = gb.numpy("prim_id.V")[first] // 2 + 1
+    expected[more] = gb.numpy("prim_id.V")[more] // 2 + 1 + n_first
+    np.testing.assert_array_equal(gb.numpy(L.LEAF_ID), expected)
+    assert gb.numpy(L.LEAF_ID)[first].max() <= n_first < gb.numpy(L.LEAF_ID)[more].min()
     # The lines hold every leaf outline: each boundary between two leaves has a line pixel.
-    leaf = gb[L.LEAF_ID]
-    ink = gb[L.LINES] > 0.5
+    leaf = gb.numpy(L.LEAF_ID)
+    ink = gb.numpy(L.LINES) > 0.5
     right = leaf[:, 1:] != leaf[:, :-1]
     assert np.all((ink[:, 1:] | ink[:, :-1])[right])
     img = np.asarray(mi.render(scene))
     names = [*L.RGB, *scene.integrator().aov_names()]
     leaf_channel = img[..., names.index(L.LEAF_ID)]
-    np.testing.assert_array_equal(leaf_channel, gb[L.LEAF_ID].astype(np.float32))
+    np.testing.assert_array_equal(leaf_channel, gb.numpy(L.LEAF_ID).astype(np.float32))
     # Without leaf_edges, npr_lines' layout is unchanged.
     plain = write(d, body, "plain.xml", integrator=lines.replace('"1"', '"0"'))
     assert L.LEAF_ID not in mi_npr.render(plain)

@@ -50,7 +50,7 @@ def test02_style_scene_renders_leaf_outlines(name, tmp_path):
     assert DEFAULTS <= declared_defaults(path)
     gb = mi_npr.render(path, width=64, height=64, spp=2)
     assert gb.metadata["mi_npr/integrator"] == "npr_lines"
-    leaf, ink = gb[L.LEAF_ID], gb[L.LINES]
+    leaf, ink = gb.numpy(L.LEAF_ID), gb.numpy(L.LINES)
     assert leaf.max() > 20  # many leaves in view
     # Lines are full strength, except large_leaves' where the beauty is bright (bright_fade).
     fade = np.ones(leaf.shape)
@@ -68,17 +68,17 @@ def test02_style_scene_renders_leaf_outlines(name, tmp_path):
         assert np.all(drawn >= 0.5 * min_fade[boundary] - 1e-6)
     out = mi_npr.io.write_outputs(gb, tmp_path, name)
     back = mi_npr.io.read_exr(out[0])
-    np.testing.assert_array_equal(back[L.LINES], ink)
-    np.testing.assert_array_equal(back[L.LEAF_ID], leaf)
+    np.testing.assert_array_equal(back.numpy(L.LINES), ink)
+    np.testing.assert_array_equal(back.numpy(L.LEAF_ID), leaf)
 
 
 def test03_large_leaves_has_no_lines_in_bright_areas():
     gb = mi_npr.render(SCENES / "foliage_large_leaves.xml", width=64, height=64, spp=4)
     Y = gb.stack(L.RAW_RGB) @ np.array([0.2126, 0.7152, 0.0722])
     fade = S.style("large_leaves").lines["bright_fade"]
-    assert np.all(gb[L.LINES][Y >= 2 * fade] == 0)
-    dark = (Y < fade) & (gb[L.LEAF_ID] > 0)
-    assert gb[L.LINES][dark].max() == 1.0
+    assert np.all(gb.numpy(L.LINES)[Y >= 2 * fade] == 0)
+    dark = (Y < fade) & (gb.numpy(L.LEAF_ID) > 0)
+    assert gb.numpy(L.LINES)[dark].max() == 1.0
 
 
 def test04_childrens_book_is_flat(tmp_path):
@@ -87,7 +87,7 @@ def test04_childrens_book_is_flat(tmp_path):
     text = (SCENES / "foliage_childrens_book.xml").read_text()
     assert '<integer name="bands" value="3"/>' in text
     gb = mi_npr.render(sun_only("childrens_book", tmp_path), width=64, height=64, spp=1)
-    green = gb.stack(L.RAW_RGB)[gb[L.LEAF_ID] > 0][:, 1]
+    green = gb.stack(L.RAW_RGB)[gb.numpy(L.LEAF_ID) > 0][:, 1]
     full = S.style("childrens_book").leaf_color[1] / np.pi * 2.6
     tones = green / full * 3
     np.testing.assert_allclose(tones, np.round(tones), atol=1e-3)
@@ -114,7 +114,7 @@ def test05_write_foliage_scene(tmp_path):
         gb = mi_npr.render(str(xml), width=40, height=30, spp=1, leaf_size=0.5)
     finally:
         os.chdir(cwd)
-    assert gb.shape == (30, 40) and (gb[L.LEAF_ID] > 0).any()
+    assert gb.shape == (30, 40) and (gb.numpy(L.LEAF_ID) > 0).any()
     # The camera frames the whole plant: nothing touches the image border.
     assert not gb.object_id[[0, -1]].any() and not gb.object_id[:, [0, -1]].any()
     empty = fo.Plant.from_mesh(np.zeros((0, 3)), np.zeros((0, 3)))

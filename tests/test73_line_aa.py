@@ -59,10 +59,10 @@ def test02_supersampled_equals_box_filtered_large_film(tmp_path, n, params):
     big = mi_npr.render(_scene(tmp_path, w * n, h * n))
     sup = supersampled_gbuffer(scene, sensor, n)
     for name in (L.Z, L.OBJECT_ID, *L.N):
-        np.testing.assert_array_equal(sup[name], big[name], err_msg=name)
+        np.testing.assert_array_equal(sup.numpy(name), big.numpy(name), err_msg=name)
     width = params.get("line_width", 1.0)
     expected = ref_box(np.asarray(K.lines(big, **{**params, "line_width": width * n})), n)
-    got = antialiased_lines(scene, sensor, gb, n, **params)
+    got = np.asarray(antialiased_lines(scene, sensor, gb, n, **params))
     assert got.shape == (h, w) and got.dtype == np.float32
     np.testing.assert_allclose(got, expected, atol=1e-6)
     assert 0 < got[got > 0].min() < 1  # gray levels
@@ -91,7 +91,7 @@ def test05_plugin_and_bad_values(write_scene):
     scene = mi_npr.load_scene(write_scene(BODY, integrator=lines))
     gb = mi_npr.render(scene)
     expected = antialiased_lines(scene, scene.sensors()[0], gb, 2)
-    np.testing.assert_array_equal(gb[L.LINES], expected)
+    np.testing.assert_array_equal(gb.numpy(L.LINES), expected)
     sensor = scene.sensors()[0]
     with pytest.raises(mi_npr.ParameterError, match=r"line_aa = 9: must be an integer in \[1, 8\]"):
         antialiased_lines(scene, sensor, gb, 9)

@@ -4,6 +4,8 @@
 - :func:`trace_scene` finds the same contours from the scene by casting primary rays only where
   selective refinement and the follower ask for them.
 - :class:`Contour` is what both return.
+- :func:`vectorize` turns contours into :class:`VectorPath` pieces on the true outline (extra rays,
+  Douglas-Peucker), for SVG; :func:`trace_strokes` does lines and edge masks (:mod:`.vector`).
 - :func:`overlay` adds the ``contour`` layer to a G-buffer and draws the contours in red over its
   beauty (the paper's Fig. 10); ``id_mode`` chooses what one object is (:mod:`.idmode`).
 """
@@ -15,6 +17,7 @@ from .idmode import ID_MODES, IdMap, id_map
 from .overlay import mode_ids, overlay, render_contours
 from .refine import TraceStats, trace_scene
 from .trace import METHODS, contour_layer, contour_mask, trace
+from .vector import VectorPath, render_vector_contours, stroke_layers, trace_strokes, vectorize
 
 __all__ = [
     "ID_MODES",
@@ -22,12 +25,17 @@ __all__ = [
     "Contour",
     "IdMap",
     "TraceStats",
+    "VectorPath",
     "contour_layer",
     "contour_mask",
     "id_map",
     "mode_ids",
     "overlay",
     "render_contours",
+    "render_vector_contours",
+    "stroke_layers",
     "trace",
     "trace_scene",
+    "trace_strokes",
+    "vectorize",
 ]

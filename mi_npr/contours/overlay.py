@@ -38,7 +38,7 @@ def mode_ids(
     if scene is None:
         raise ParameterError(f"id_mode = {id_mode!r} needs the scene (its meshes)")
     ids = id_map(scene, id_mode)
-    return ids.apply(gb[L.OBJECT_ID], gb[L.PRIM_ID]), ids.names
+    return ids.apply(gb.numpy(L.OBJECT_ID), gb.numpy(L.PRIM_ID)), ids.names
 
 
 def overlay(

@@ -38,9 +38,11 @@ resolved: "its previous and following pixels don't have the same ID" is read as 
 neighbours ``i - 1`` and ``i + 1`` (mod 8) have the object's id (both lie in the current pixel's
 ring and are 4-neighbours of candidate ``i``); the departure pixel is coloured from the start, and
 the walk stops when no neighbour qualifies; it is *closed* when it stopped next to its departure
-pixel (or is a single pixel), else *open*. Colouring is per contour, so contours do not depend on
-the order they are traced in. Each contour piece gets its own departure pixel (the first pixel of
-its border-follower contour) instead of one per object. Where it goes wrong, by construction:
+pixel (or is a single pixel) *and* holds every pixel of its piece's border (the border follower's
+cycle), else *open* (issue 18: stopping next to the start after skipping pixels is not closing).
+Colouring is per contour, so contours do not depend on the order they are traced in. Each contour
+piece gets its own departure pixel (the first pixel of its border-follower contour) instead of one
+per object. Where it goes wrong, by construction:
 
 - the ring test sees only two of the candidate's four 4-neighbours, so a true contour pixel whose
   "not k" neighbour is the other two is skipped;
@@ -241,8 +243,20 @@ def _cycle_order(succ: np.ndarray, is_rep: np.ndarray, reps: np.ndarray) -> np.n
     return depth_first_order(graph, n, directed=True, return_predecessors=False)[1:]
 
 
-def cycles(grid: Grid, cracks: tuple[np.ndarray, np.ndarray] | None = None) -> Cycles:
-    """Every closed contour of ``grid`` (all objects) as crack cycles (see module docstring).
+@dataclass
+class CrackCycles:
+    """The contours of a grid as ordered crack cycles (before collapsing cracks to pixels)."""
+
+    pix: np.ndarray  # flat padded index of each crack's pixel, cycle after cycle, in order
+    side: np.ndarray  # each crack's side d (0 = +x, 1 = +y, 2 = -x, 3 = -y)
+    offsets: np.ndarray  # per cycle: first crack in ``pix`` (len = cycles + 1)
+    object_id: np.ndarray  # per cycle
+    start: np.ndarray  # per cycle: flat padded index of its first pixel
+    is_hole: np.ndarray  # per cycle
+
+
+def crack_cycles(grid: Grid, cracks: tuple[np.ndarray, np.ndarray] | None = None) -> CrackCycles:
+    """Every contour of ``grid`` (all objects) as an ordered cycle of cracks (module docstring).
 
     With a partial grid (``known`` set), only cracks whose two pixels are known take part: the
     caller guarantees that the successors of those cracks are known too (ray-cast mode's closure).
@@ -253,7 +267,7 @@ def cycles(grid: Grid, cracks: tuple[np.ndarray, np.ndarray] | None = None) -> C
     n = len(pix)
     if n == 0:
         z = np.zeros(0, np.int64)
-        return Cycles(z, z, z.astype(bool), np.zeros(1, np.int64), np.zeros((0, 2), np.int32))
+        return CrackCycles(z, z, np.zeros(1, np.int64), z, z, z.astype(bool))
     keys = pix * 4 + side  # sorted
     # Successor keys -> crack indices through a table over all keys (only the cracks' entries
     # are written and read: np.empty touches no other page), ~20x faster than searchsorted.
@@ -273,24 +287,39 @@ def cycles(grid: Grid, cracks: tuple[np.ndarray, np.ndarray] | None = None) -> C
     cyc_of = np.empty(n, np.int64)
     cyc_of[reps] = np.arange(len(reps))
     cyc = cyc_of[rep]
+    length = np.bincount(cyc, minlength=len(reps))
     seq = _cycle_order(succ, is_rep, reps)
-    pix_seq, cyc_seq = pix[seq], cyc[seq]
-    keep = np.ones(n, dtype=bool)
-    keep[1:] = (pix_seq[1:] != pix_seq[:-1]) | (cyc_seq[1:] != cyc_seq[:-1])
-    points = grid.xy(pix_seq[keep])
-    counts = np.bincount(cyc_seq[keep], minlength=len(reps))
     # Twice the signed area enclosed by each cycle's crack edges: > 0 outer border, < 0 hole.
     x = pix % grid.stride - 1
     y = pix // grid.stride - 1
     e = _EDGE[side]
     cross = (x + e[:, 0]) * (y + e[:, 3]) - (x + e[:, 2]) * (y + e[:, 1])
     area = np.bincount(cyc, weights=cross.astype(np.float64), minlength=len(reps))
-    return Cycles(
+    return CrackCycles(
+        pix=pix[seq],
+        side=side[seq],
+        offsets=np.concatenate([[0], np.cumsum(length)]),
         object_id=grid.ids[pix[reps]].astype(np.int64),
         start=pix[reps],
         is_hole=area < 0,
-        offsets=np.concatenate([[0], np.cumsum(counts)]),
-        points=points,
+    )
+
+
+def cycles(grid: Grid, cracks: tuple[np.ndarray, np.ndarray] | None = None) -> Cycles:
+    """Every closed contour of ``grid`` (all objects): :func:`crack_cycles` (``cracks`` as it
+    takes them) with consecutive cracks on one pixel collapsed into one point."""
+    cc = crack_cycles(grid, cracks)
+    n_cyc = len(cc.object_id)
+    cyc_seq = np.repeat(np.arange(n_cyc, dtype=np.int64), np.diff(cc.offsets))
+    keep = np.ones(len(cc.pix), dtype=bool)
+    keep[1:] = (cc.pix[1:] != cc.pix[:-1]) | (cyc_seq[1:] != cyc_seq[:-1])
+    counts = np.bincount(cyc_seq[keep], minlength=n_cyc)
+    return Cycles(
+        object_id=cc.object_id,
+        start=cc.start,
+        is_hole=cc.is_hole,
+        offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+        points=grid.xy(cc.pix[keep]),
     )
 
 
@@ -378,6 +407,26 @@ def _check_ids(object_id: Any) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.uint32)
 
 
+def check_only(only: Any) -> list[int] | None:
+    """``only`` (object ids to trace) as a list of ints, or an error naming it."""
+    if only is None:
+        return None
+    bad = ParameterError(f"only = {only!r}: expected an iterable of object ids (integers >= 0)")
+    if isinstance(only, (str, bytes)) or not isinstance(only, Iterable):
+        raise bad
+    out = []
+    for v in only:
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v < OUTSIDE:
+            raise bad
+        out.append(int(v))
+    return out
+
+
+def check_ids(object_id: Any) -> np.ndarray:
+    """``object_id`` as a checked (H, W) uint32 id buffer (a one-line error otherwise)."""
+    return _check_ids(object_id)
+
+
 def check_method(method: str) -> str:
     if method not in METHODS:
         raise ParameterError(f"method = {method!r}: expected one of {', '.join(METHODS)}")
@@ -444,11 +493,18 @@ def contours_from_grid(
             int(cyc.object_id[i]),
             _name(objects, int(cyc.object_id[i])),
             grid.xy(np.asarray(chain, np.int64)),
-            closed,
+            closed and _holds_piece(grid, chain, cyc.points[cyc.offsets[i] : cyc.offsets[i + 1]]),
             bool(cyc.is_hole[i]),
         )
         for i, (chain, closed) in zip(order, done, strict=True)
     ]
+
+
+def _holds_piece(grid: Grid, chain: list[int], piece: np.ndarray) -> bool:
+    """Whether a walk's chain holds every pixel of its piece's border (the border follower's
+    cycle ``piece``, (x, y) points): a walk that stopped next to its start but skipped part of
+    the piece is not closed (issue 18)."""
+    return bool(np.isin(grid.index(piece[:, 0], piece[:, 1]), np.asarray(chain)).all())
 
 
 def trace(
@@ -472,6 +528,12 @@ def trace(
     [[[1, 1], [2, 1], [3, 1], [4, 1], [4, 2], [4, 3], [3, 3], [2, 3], [1, 3], [1, 2]]]
     """
     check_method(method)
+    if objects is not None and not isinstance(objects, Mapping):
+        raise ParameterError(
+            f"objects = {objects!r}: expected a mapping of object ids to names, "
+            f"got {type(objects).__name__}"
+        )
+    only = check_only(only)
     if isinstance(object_id, GBuffer):
         if objects is None:
             objects = object_id.objects

@@ -66,8 +66,9 @@ import mitsuba as mi
 import numpy as np
 from scipy.cluster.vq import kmeans2, vq
 
-from ..errors import InputError, ParameterError
+from ..errors import InputError, ParameterError, check_input_file
 from ..io._atomic import atomic_output
+from ..params import check_arg, cli_param
 from .plant import Plant
 
 #: The iso-value of the surface: a lone blob of weight 1 has its ellipsoid as surface.
@@ -391,8 +392,7 @@ class HLPSet:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> HLPSet:
         p = Path(path)
-        if not p.is_file():
-            raise InputError(f"{p}: no such file")
+        check_input_file(p)
         try:
             d = json.loads(p.read_text(encoding="utf-8"))
         except (UnicodeDecodeError, json.JSONDecodeError) as e:
@@ -451,8 +451,9 @@ def build_hlps(
     centres lies inside the surface. An empty plant gives an empty :class:`HLPSet`."""
     if not (isinstance(inside, (int, float)) and 0 < inside <= 1):
         raise ParameterError(f"inside = {inside!r}: must lie in (0, 1]")
-    if k is not None and (isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1):
-        raise ParameterError(f"k = {k!r}: the number of HLPs must be a positive integer")
+    if k is not None:
+        # At most MAX_HLPS; k-means keeps at most one per leaf.
+        k = check_arg("build_hlps", replace(cli_param("foliage", "--hlps"), name="k"), k)
     if not len(plant):
         z = np.zeros((0, 3))
         return HLPSet(z, z, np.zeros((0, 3, 3)), np.zeros(0), ISO, f"{plant.name} HLPs")

@@ -62,7 +62,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
+from ..errors import InputError, ParameterError, check_input_file
 from ..meshes import write_ply
 from .hlp import HLPSet
 from .plant import Plant, any_perpendicular, unit_rows
@@ -157,8 +157,7 @@ def leaf_template(shape: str | os.PathLike[str]) -> LeafTemplate:
         return _fan(_leaf_outline(), "leaf")
     p = Path(shape)
     if p.suffix.lower() == ".png":
-        if not p.is_file():
-            raise InputError(f"{p}: no such file")
+        check_input_file(p)
         t = _fan(_alpha_outline(p), str(p))
         # Centre vertex at the outline's centre, uv = the image position of each vertex.
         rim = t.xy[1:]

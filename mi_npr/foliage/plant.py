@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
+from ..errors import InputError, ParameterError, check_input_file
 from ..meshes import face_components, read_ply, write_ply
 
 LEAF_MODES = ("components", "triangles")
@@ -244,8 +244,7 @@ def read_obj(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, np.n
     empty mesh, and splits a vertex that faces use with different ``vt``/``vn``, which would cut
     a leaf into separate components."""
     p = Path(path)
-    if not p.is_file():
-        raise InputError(f"{p}: no such file")
+    check_input_file(p)
     verts: list[list[float]] = []
     normals: list[list[float]] = []
     tris: list[tuple[int, int, int]] = []

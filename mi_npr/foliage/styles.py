@@ -43,8 +43,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..io import check_writable_dir, write_text
+from ..io import check_writable_dir, output_set, write_text
 from ..meshes import write_ply
+from ..params import check_arg, cli_param
 from .hlp import HLPSet, build_hlps
 from .leaves import leaf_template
 from .plant import Plant, read_plant
@@ -280,6 +281,24 @@ def load_plant(source: str, seed: int = 0, leaves: str = "components") -> Plant:
     return read_plant(source, leaves=leaves)
 
 
+#: Smallest leaf size relative to the plant's bounding-box diagonal: smaller leaves are invisible
+#: at any resolution a render can afford, and their count (coverage / size^2) explodes.
+MIN_LEAF_FRACTION = 1e-4
+
+
+def _check_leaf_size(plant: Plant, leaf_size: float | None) -> None:
+    if leaf_size is None:
+        return
+    leaf_size = check_arg("leaf_size", cli_param("foliage", "--leaf-size"), leaf_size)
+    lo, hi = plant.bbox()
+    diag = float(np.linalg.norm(hi - lo))
+    if leaf_size < MIN_LEAF_FRACTION * diag:
+        raise ParameterError(
+            f"leaf_size = {leaf_size!r}: too small for a plant {diag:.4g} across "
+            f"(at least {MIN_LEAF_FRACTION * diag:.4g})"
+        )
+
+
 def write_foliage_scene(
     output: str | os.PathLike[str],
     plant: Plant,
@@ -303,6 +322,7 @@ def write_foliage_scene(
     if out.suffix.lower() != ".xml":
         raise ParameterError(f"{out}: the scene file must end in .xml")
     leaf_template(st.leaf_shape)
+    _check_leaf_size(plant, leaf_size)
     files = scene_files(out, assets)
     check_writable_dir(out.parent, create=True)
     h = hlps if hlps is not None else build_hlps(plant, k=k, seed=seed)
@@ -315,10 +335,11 @@ def write_foliage_scene(
     rel = {k: html.escape(p, quote=True) for k, p in rel.items()}  # & < > " in names
     wood = rel["wood"] if plant.wood is not None else None
     text = scene_xml(st, rel["plant"], rel["hlps"], plant, wood, leaf_size, abstraction, seed)
-    written = [plant.save(files["plant"]), h.save(files["hlps"])]
-    if plant.wood is not None:
-        written.append(write_ply(files["wood"], *plant.wood))
-    written.append(write_text(out, text))
+    with output_set():  # the scene and its assets together, or none of them
+        written = [plant.save(files["plant"]), h.save(files["hlps"])]
+        if plant.wood is not None:
+            written.append(write_ply(files["wood"], *plant.wood))
+        written.append(write_text(out, text))
     return written
 
 

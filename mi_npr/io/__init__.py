@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 from .. import layers as L
 from ..gbuffer import GBuffer
-from ._atomic import atomic_output, check_writable_dir
+from ._atomic import atomic_output, check_writable_dir, output_set
 from .exr import describe, read_exr, write_exr
 from .png import linear_to_srgb, to_rgb8, write_png
 from .svg import svg_document, write_contour_outputs, write_svg
@@ -33,10 +34,36 @@ def write_outputs(
     sheet = None
     if L.LINES in gb:
         sheet = drawing(gb, INK if line_color is None else line_color, paper or PAPER)
-    out = [write_exr(d / f"{stem}.exr", gb), write_png(d / f"{stem}.png", gb.beauty)]
-    if sheet is not None:
-        out.append(write_png(d / f"{stem}_lines.png", sheet))
+    with output_set():  # all or none
+        out = [write_exr(d / f"{stem}.exr", gb), write_png(d / f"{stem}.png", gb.beauty)]
+        if sheet is not None:
+            out.append(write_png(d / f"{stem}_lines.png", sheet))
     return out
+
+
+def write_raytree_outputs(
+    gb: GBuffer, outdir: str | os.PathLike[str], stem: str, strokes: Mapping[str, Any]
+) -> list[Path]:
+    """What ``mi-npr raytree`` writes: ``<stem>.exr``, ``<stem>_raytree.png`` (the edge classes
+    over the beauty) and ``<stem>_raytree.svg`` (each class an Inkscape layer of paths from
+    ``strokes``, over the raw beauty embedded once)."""
+    from ..compose import raw_beauty
+
+    d = check_writable_dir(outdir, create=True)
+    with output_set():  # every file together, or none of them
+        return [
+            write_exr(d / f"{stem}.exr", gb),
+            write_png(d / f"{stem}_raytree.png", gb.beauty),
+            write_svg(
+                d / f"{stem}_raytree.svg",
+                [],
+                gb.width,
+                gb.height,
+                beauty=raw_beauty(gb),
+                strokes=strokes,
+                title=gb.metadata.get("mi_npr/scene", stem),
+            ),
+        ]
 
 
 __all__ = [
@@ -44,6 +71,7 @@ __all__ = [
     "check_writable_dir",
     "describe",
     "linear_to_srgb",
+    "output_set",
     "read_exr",
     "svg_document",
     "to_rgb8",
@@ -51,6 +79,7 @@ __all__ = [
     "write_exr",
     "write_outputs",
     "write_png",
+    "write_raytree_outputs",
     "write_svg",
     "write_text",
 ]

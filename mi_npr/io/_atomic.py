@@ -1,11 +1,20 @@
 """Atomic writes: every output goes to a temporary name in the target directory and is renamed
-into place only once complete, so a crash or a bad input never leaves a half-written file."""
+into place only once complete, so a crash or a bad input never leaves a half-written file.
+
+Issue 18: temporary names carry the writing process's PID (``.NAME.PID.XXXXXXXX.tmp``); they are
+removed on every exit path (exceptions, ``atexit``, SIGTERM through the CLI), and those of a run
+that was killed outright (SIGKILL) are swept by the next run that writes to the same directory.
+:func:`output_set` replaces a set of outputs (EXR, PNGs, SVG, XML) all together or not at all.
+"""
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
+import re
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -37,21 +46,144 @@ def check_writable_dir(directory: str | os.PathLike[str], create: bool = False) 
     return d
 
 
+#: This process's temporary files not yet renamed into place (removed at exit, on SIGTERM).
+_LIVE: set[str] = set()
+#: Open output sets (:func:`output_set`), innermost last: their (temp, target) pairs.
+_SETS: list[list[tuple[str, Path]]] = []
+#: Directories already swept for stale temporary files by this process.
+_SWEPT: set[str] = set()
+#: When this process started (roughly: when mi-npr was imported).
+_STARTED = time.time()
+# ".NAME.PID.XXXXXXXX.tmp" (this version) and ".NAME.XXXXXXXX.tmp" (before the PID was added).
+_TEMP = re.compile(r"^\.(?P<name>.+?)\.(?:(?P<pid>\d+)\.)?(?P<rand>[a-z0-9_]{8})\.tmp$")
+
+
+def temp_name_pid(name: str) -> int | bool | None:
+    """The PID in a temporary file name of this tool, ``None`` for an old name without one, or
+    ``False`` when ``name`` is not one of ours."""
+    m = _TEMP.match(name)
+    if not m:
+        return False
+    return int(m["pid"]) if m["pid"] else None
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True  # someone else's process (or not a PID we can ask about): keep its files
+    return True
+
+
+def clean_stale(directory: str | os.PathLike[str]) -> list[Path]:
+    """Remove this tool's temporary files in ``directory`` left by runs that were killed
+    (SIGKILL, power loss): those whose PID is dead, and old-style names without a PID that are
+    older than this process. Returns what was removed; errors are ignored (best effort)."""
+    removed: list[Path] = []
+    try:
+        entries = list(os.scandir(directory))
+    except OSError:
+        return removed
+    for e in entries:
+        pid = temp_name_pid(e.name)
+        if pid is False or e.path in _LIVE:
+            continue
+        try:
+            if not e.is_file(follow_symlinks=False):
+                continue
+            stale = (not _alive(pid)) if pid is not None else e.stat().st_mtime < _STARTED
+            if stale or (pid == os.getpid()):
+                os.unlink(e.path)
+                removed.append(Path(e.path))
+        except OSError:
+            continue
+    return removed
+
+
+def remove_live_temps() -> None:
+    """Remove every temporary file of this process that was not renamed (exit, SIGTERM)."""
+    for tmp in list(_LIVE):
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        _LIVE.discard(tmp)
+
+
+atexit.register(remove_live_temps)
+
+
+@contextlib.contextmanager
+def output_set() -> Iterator[None]:
+    """Every :func:`atomic_output` inside the block is renamed into place at its end, all
+    together, or none of them (their temporary files removed) if the block fails: an output set
+    (EXR, PNGs, SVG, XML) never mixes two runs. Nested sets join the outermost one."""
+    batch: list[tuple[str, Path]] = []
+    _SETS.append(batch)
+    try:
+        yield
+    except BaseException:
+        _SETS.pop()
+        for tmp, _ in batch:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            _LIVE.discard(tmp)
+        raise
+    _SETS.pop()
+    if _SETS:
+        _SETS[-1].extend(batch)
+        return
+    try:
+        for tmp, target in batch:
+            os.replace(tmp, target)
+            _LIVE.discard(tmp)
+    except OSError as e:
+        raise OutputError(f"{target}: cannot write ({e.strerror or e})") from None
+    finally:
+        for tmp, _ in batch:
+            if tmp in _LIVE:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+                _LIVE.discard(tmp)
+
+
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str]) -> Iterator[str]:
-    """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds."""
+    """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds
+    (inside an :func:`output_set`, at the set's end). The temporary name is
+    ``.NAME.PID.XXXXXXXX.tmp``; stale ones of killed runs are swept from the directory first."""
     target = Path(path)
-    check_writable_dir(target.parent if str(target.parent) else ".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    parent = target.parent if str(target.parent) else Path(".")
+    check_writable_dir(parent)
+    key = os.path.realpath(parent)
+    if key not in _SWEPT:
+        _SWEPT.add(key)
+        clean_stale(parent)
+    try:
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=parent
+        )
+    except OSError as e:
+        raise OutputError(f"{target}: cannot write ({e.strerror or e})") from None
     os.close(fd)
+    _LIVE.add(tmp)
+    deferred = False
     try:
         yield tmp
         os.chmod(tmp, _FILE_MODE)
-        os.replace(tmp, target)
+        if _SETS:
+            _SETS[-1].append((tmp, target))
+            deferred = True
+        else:
+            os.replace(tmp, target)
     except OSError as e:
         raise OutputError(f"{target}: cannot write ({e.strerror or e})") from None
     except RuntimeError as e:  # OpenEXR reports I/O failures (a full disk) as RuntimeError
         raise OutputError(f"{target}: cannot write ({one_line(e)})") from None
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+        if not deferred:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
+            _LIVE.discard(tmp)

@@ -9,6 +9,7 @@ import numpy as np
 from PIL import Image
 
 from ..errors import ParameterError
+from ..params import MAX_RES
 from ._atomic import atomic_output
 
 
@@ -23,12 +24,14 @@ def to_rgb8(image: np.ndarray, linear: bool = True) -> np.ndarray:
     a = np.asarray(image)
     if a.dtype == np.uint8:
         return a
+    # NaN is black, +inf white, -inf black (issue 18: a NaN cast to uint8 is undefined).
+    clean = np.nan_to_num(a.astype(np.float32), nan=0.0, posinf=1.0, neginf=0.0)
     if linear:
-        a = linear_to_srgb(a)
+        a = linear_to_srgb(clean)
         if a.ndim == 3 and a.shape[-1] == 4:  # alpha is not colour: store it as is
-            a[..., 3] = np.clip(np.asarray(image)[..., 3], 0.0, 1.0)
+            a[..., 3] = np.clip(clean[..., 3], 0.0, 1.0)
     else:
-        a = np.clip(np.nan_to_num(a.astype(np.float32), nan=0.0), 0.0, 1.0)
+        a = np.clip(clean, 0.0, 1.0)
     return (a * 255.0 + 0.5).astype(np.uint8)
 
 
@@ -38,6 +41,12 @@ def write_png(path: str | os.PathLike[str], image: np.ndarray, linear: bool = Tr
     a = np.asarray(image)
     if a.ndim not in (2, 3) or (a.ndim == 3 and a.shape[-1] not in (1, 3, 4)):
         raise ParameterError(f"{path}: cannot write an image of shape {a.shape} as PNG")
+    if a.size == 0:
+        raise ParameterError(f"{path}: cannot write an empty image (shape {a.shape}) as PNG")
+    if a.dtype.kind not in "buif":
+        raise ParameterError(f"{path}: cannot write an image of dtype {a.dtype} as PNG")
+    if max(a.shape[:2]) > MAX_RES:
+        raise ParameterError(f"{path}: image {a.shape[1]} x {a.shape[0]} is too large for PNG")
     if a.ndim == 3 and a.shape[-1] == 1:
         a = a[..., 0]
     rgb8 = to_rgb8(a, linear)

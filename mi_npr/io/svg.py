@@ -2,21 +2,35 @@
 
 Layout of the document (``width`` x ``height`` user units = pixels, y down like the image)::
 
-    <svg viewBox="0 0 W H">
-      <image id="beauty" .../>                    optional: the beauty render, base64 PNG (sRGB)
-      <g id="contours" fill="none" stroke="#ff0000" stroke-width="1" ...>
-        <g id="sphere_left" data-object-id="3" data-name="sphere_left" fill-rule="evenodd">
-          <path class="outer" d="M 10.5 3.5 L 11.5 3.5 ... Z"/>
+    <svg viewBox="0 0 W H" xmlns:inkscape="...">
+      <g id="beauty-layer" inkscape:groupmode="layer" inkscape:label="beauty">   optional
+        <image id="beauty" href="data:image/png;base64,..."/>   embedded once, or a linked file
+      </g>
+      <g id="contours" inkscape:groupmode="layer" inkscape:label="contours" fill="none"
+         stroke="#ff0000" stroke-width="1" ...>
+        <g id="sphere_left" inkscape:label="sphere_left" data-object-id="3"
+           data-name="sphere_left" fill-rule="evenodd">
+          <path class="outer" d="M 10.52 3.5 L 11.5 3.38 ... Z"/>
           <path class="hole" fill-rule="evenodd" d="..."/>
         </g>
         ...
+      </g>
+      <g id="lines" inkscape:groupmode="layer" inkscape:label="lines" stroke="#000000" ...>
+        <path d="M ... L ..."/> ...                 optional: one layer per stroke drawing
+      </g>
 
-One ``<path>`` per contour through the centres of its pixels (``x + 0.5, y + 0.5``), closed with
-``Z`` when the contour is closed, one ``<g>`` per object. Group ids are the object names made
-into valid XML names (characters other than letters, digits, ``_ . -`` become ``_``, a leading
-digit gets a ``_`` prefix, a clash gets ``-<object id>``); ``data-name`` keeps the exact name.
+Every drawing is an Inkscape layer (``inkscape:groupmode="layer"``; other programs see plain
+groups), every object a group named after it. A contour is one ``<path>``: either a
+:class:`~mi_npr.contours.vector.VectorPath` (vertices on the object's true outline, open where
+the object meets the image frame) or a pixel :class:`~mi_npr.contours.Contour` (through its
+pixels' centres ``x + 0.5, y + 0.5``), closed with ``Z`` when closed. Coordinates are written
+with at most 2 decimals (0.005 px). Group ids are the object names made into valid XML names
+(characters other than letters, digits, ``_ . -`` become ``_``, a leading digit gets a ``_``
+prefix, a clash gets ``-<object id>``); ``data-name`` and ``inkscape:label`` keep the exact name.
 Holes carry ``fill-rule="evenodd"`` (inherited from their group too), so giving a group a fill
-(or combining its paths into one) leaves the holes empty. Writes are atomic.
+(or combining its paths into one) leaves the holes empty. The beauty is either embedded once
+(SVG 2 ``href``, which browsers and Inkscape >= 1.0 read), linked (``beauty_href``, a file
+beside the SVG) or left out. Writes are atomic.
 """
 
 from __future__ import annotations
@@ -25,7 +39,7 @@ import base64
 import io
 import os
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import quoteattr
@@ -35,10 +49,18 @@ from PIL import Image
 
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
-from ._atomic import atomic_output, check_writable_dir
+from ..params import MAX_RES, Param, check_arg, integer_range, real_range, rgb_color
+from ._atomic import atomic_output, check_writable_dir, output_set
 from .png import linear_to_srgb, to_rgb8
 
-_RESERVED = {"beauty", "contours"}
+_RESERVED = {"beauty", "beauty-layer", "contours"}
+_INKSCAPE = "http://www.inkscape.org/namespaces/inkscape"
+
+
+_WIDTH = Param("width", int, 1, "image width in pixels", integer_range(1, MAX_RES))
+_HEIGHT = Param("height", int, 1, "image height in pixels", integer_range(1, MAX_RES))
+_COLOR = Param("color", tuple, (1.0, 0.0, 0.0), "linear RGB of the contours", rgb_color)
+_STROKE = Param("stroke_width", float, 1.0, "line width", real_range(0.0, 1e4, open_lo=True))
 
 
 def _hex(color: Sequence[float]) -> str:
@@ -62,15 +84,27 @@ def xml_id(name: str, taken: set[str], fallback: str) -> str:
     return s
 
 
-def _path_data(points: np.ndarray, closed: bool) -> str:
-    p = np.asarray(points, np.int64)
-    if len(p) == 0:
+def _num(v: float) -> str:
+    t = f"{v:.2f}".rstrip("0").rstrip(".")
+    return "0" if t in ("-0", "") else t
+
+
+def _polyline(points: np.ndarray, closed: bool) -> str:
+    if len(points) == 0:
         return ""
-    coords = [f"{x}.5 {y}.5" for x, y in p.tolist()]
+    coords = [f"{_num(x)} {_num(y)}" for x, y in np.asarray(points, np.float64).tolist()]
     d = "M " + coords[0]
     if len(coords) > 1:
         d += " L " + " ".join(coords[1:])
     return d + (" Z" if closed else "")
+
+
+def _path_data(contour: Any) -> str:
+    """A contour's ``d``: a vector path's own points, or a pixel contour's pixel centres."""
+    pts = np.asarray(contour.points)
+    if pts.dtype.kind in "iu":
+        pts = pts.astype(np.float64) + 0.5
+    return _polyline(pts, contour.closed)
 
 
 def _png_base64(image: np.ndarray) -> str:
@@ -79,60 +113,104 @@ def _png_base64(image: np.ndarray) -> str:
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
+def _layer(gid: str, label: str, attrs: str = "") -> str:
+    return (
+        f'<g id={quoteattr(gid)} inkscape:groupmode="layer" inkscape:label={quoteattr(label)}'
+        + (f" {attrs}" if attrs else "")
+        + ">"
+    )
+
+
 def svg_document(
     contours: Iterable,
     width: int,
     height: int,
     *,
     beauty: np.ndarray | None = None,
+    beauty_href: str | None = None,
     color: Sequence[float] = (1.0, 0.0, 0.0),
     stroke_width: float = 1.0,
     title: str | None = None,
+    strokes: Mapping[str, tuple[Sequence[np.ndarray], Sequence[float]]] | None = None,
 ) -> str:
-    """The SVG text for ``contours`` (:class:`~mi_npr.contours.Contour`) over an image of
-    ``width`` x ``height`` pixels; ``beauty`` ((H, W, 3) linear RGB) is embedded beneath them.
+    """The SVG text for ``contours`` (:class:`~mi_npr.contours.vector.VectorPath` or
+    :class:`~mi_npr.contours.Contour`) over an image of ``width`` x ``height`` pixels.
+
+    ``beauty`` ((H, W, 3) linear RGB) is embedded beneath them as a PNG, or ``beauty_href``
+    (a file name or URL) is linked instead. ``strokes`` maps a layer name to (polylines, linear
+    RGB colour): one more layer of open paths per entry (depth lines, ray-tree edge classes).
     ``color`` is linear RGB (written as sRGB hex)."""
-    w, h = int(width), int(height)
-    if w < 1 or h < 1:
-        raise ParameterError(f"SVG size {width} x {height}: must be positive")
+    w = check_arg("write_svg", _WIDTH, width)
+    h = check_arg("write_svg", _HEIGHT, height)
+    color = check_arg("write_svg", _COLOR, color)
+    stroke_width = check_arg("write_svg", _STROKE, stroke_width)
+    if beauty is not None and beauty_href is not None:
+        raise ParameterError("SVG beauty: give the image (embed) or beauty_href (link), not both")
     groups: dict[int, tuple[str, list[str]]] = {}
     for c in contours:
-        d = _path_data(c.points, c.closed)
+        d = _path_data(c)
         if not d:
             continue
         kind = ' class="hole" fill-rule="evenodd"' if c.is_hole else ' class="outer"'
         groups.setdefault(c.object_id, (c.name, []))[1].append(f'    <path{kind} d="{d}"/>')
     out = [
         '<?xml version="1.0" encoding="UTF-8"?>',
-        f'<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/xlink" '
+        f'<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="{_INKSCAPE}" '
         f'version="1.1" width="{w}" height="{h}" viewBox="0 0 {w} {h}">',
     ]
     if title:
         out.append(f"<title>{_text(title)}</title>")
+    href = None
     if beauty is not None:
         b = np.asarray(beauty)
         if b.ndim != 3 or b.shape[:2] != (h, w) or b.shape[-1] < 3:
             raise ParameterError(f"SVG beauty: shape {b.shape} does not match {w} x {h}")
-        data = "data:image/png;base64," + _png_base64(b)
+        href = "data:image/png;base64," + _png_base64(b)
+    elif beauty_href is not None:
+        href = _xml_safe(beauty_href)
+    if href is not None:
+        out.append(_layer("beauty-layer", "beauty"))
         out.append(
-            f'<image id="beauty" x="0" y="0" width="{w}" height="{h}" '
-            f'style="image-rendering:pixelated" href="{data}" xlink:href="{data}"/>'
+            f'  <image id="beauty" x="0" y="0" width="{w}" height="{h}" '
+            f'style="image-rendering:pixelated" href={quoteattr(href)}/>'
         )
-    out.append(
-        f'<g id="contours" fill="none" stroke="{_hex(color)}" stroke-width="{stroke_width:g}" '
-        'stroke-linejoin="round" stroke-linecap="round">'
-    )
-    taken: set[str] = set()
+        out.append("</g>")
+    taken: set[str] = set(strokes or ())
+    if groups or not strokes:  # a drawing of strokes only has no empty contours layer
+        out.append(
+            _layer(
+                "contours",
+                "contours",
+                f'fill="none" stroke="{_hex(color)}" stroke-width="{stroke_width:g}" '
+                'stroke-linejoin="round" stroke-linecap="round"',
+            )
+        )
     for k in sorted(groups):
         name, paths = groups[k]
         gid = xml_id(name, taken, str(k))
+        label = quoteattr(_xml_safe(name))
         out.append(
-            f'  <g id={quoteattr(gid)} data-object-id="{k}" data-name={quoteattr(_xml_safe(name))} '
-            'fill-rule="evenodd">'
+            f'  <g id={quoteattr(gid)} inkscape:label={label} data-object-id="{k}" '
+            f'data-name={label} fill-rule="evenodd">'
         )
         out.extend(paths)
         out.append("  </g>")
-    out.append("</g>")
+    if groups or not strokes:
+        out.append("</g>")
+    for name, (lines, rgb) in (strokes or {}).items():
+        out.append(
+            _layer(
+                name,
+                name,
+                f'fill="none" stroke="{_hex(rgb)}" stroke-width="{stroke_width:g}" '
+                'stroke-linejoin="round" stroke-linecap="round"',
+            )
+        )
+        for line in lines:
+            d = _polyline(line, False) if len(line) > 1 else _polyline(line, True)
+            if d:
+                out.append(f'  <path d="{d}"/>')
+        out.append("</g>")
     out.append("</svg>")
     return "\n".join(out) + "\n"
 
@@ -163,6 +241,10 @@ def write_svg(
     return target
 
 
+#: How ``write_contour_outputs`` puts the beauty in the SVG (``mi-npr contours --svg-image``).
+SVG_IMAGE = ("embed", "link", "none")
+
+
 def write_contour_outputs(
     gb: GBuffer,
     contours: Iterable,
@@ -170,32 +252,49 @@ def write_contour_outputs(
     stem: str,
     *,
     beauty_in_svg: bool = True,
+    svg_image: str = "embed",
+    paths: Iterable | None = None,
+    strokes: Mapping[str, tuple[Sequence[np.ndarray], Sequence[float]]] | None = None,
 ) -> list[Path]:
-    """What ``mi-npr contours`` writes: ``<stem>.exr`` (every layer, ``contour`` included),
+    """What ``mi-npr contours`` writes: ``<stem>.exr`` (every layer, ``contour.V`` included),
     ``<stem>_contours.png`` (R G B: the beauty with the contours drawn) and
-    ``<stem>_contours.svg`` (the contours as paths, over the raw beauty unless
-    ``beauty_in_svg=False``), in ``outdir``. The SVG's colour is the GBuffer's
-    ``mi_npr/contour_color`` (red if absent)."""
+    ``<stem>_contours.svg`` (``paths`` if given, else the pixel ``contours``, plus ``strokes``
+    layers). ``svg_image``: ``embed`` the raw beauty in the SVG, ``link`` it (written as
+    ``<stem>_beauty.png`` beside it) or ``none`` (also ``beauty_in_svg=False``). The SVG's colour
+    is the GBuffer's ``mi_npr/contour_color`` (red if absent)."""
     from ..compose import raw_beauty
     from .exr import write_exr
     from .png import write_png
 
+    if svg_image not in SVG_IMAGE:
+        raise ParameterError(f"svg_image = {svg_image!r}: must be one of {', '.join(SVG_IMAGE)}")
+    if not beauty_in_svg:
+        svg_image = "none"
     d = check_writable_dir(outdir, create=True)
     try:
         color = tuple(float(v) for v in gb.metadata["mi_npr/contour_color"].split(","))
     except (KeyError, ValueError):
         color = (1.0, 0.0, 0.0)
-    svg = write_svg(
-        d / f"{stem}_contours.svg",
-        list(contours),
-        gb.width,
-        gb.height,
-        beauty=raw_beauty(gb) if beauty_in_svg else None,
-        color=color,
-        title=gb.metadata.get("mi_npr/scene", stem),
-    )
-    return [
-        write_exr(d / f"{stem}.exr", gb),
-        write_png(d / f"{stem}_contours.png", gb.beauty),
-        svg,
-    ]
+    with output_set():  # every file together, or none of them
+        written = [
+            write_exr(d / f"{stem}.exr", gb),
+            write_png(d / f"{stem}_contours.png", gb.beauty),
+        ]
+        image: dict[str, Any] = {}
+        if svg_image == "embed":
+            image["beauty"] = raw_beauty(gb)
+        elif svg_image == "link":
+            linked = write_png(d / f"{stem}_beauty.png", raw_beauty(gb))
+            written.append(linked)
+            image["beauty_href"] = linked.name
+        svg = write_svg(
+            d / f"{stem}_contours.svg",
+            list(paths if paths is not None else contours),
+            gb.width,
+            gb.height,
+            color=color,
+            title=gb.metadata.get("mi_npr/scene", stem),
+            strokes=strokes,
+            **image,
+        )
+        return [*written, svg]

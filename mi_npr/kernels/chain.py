@@ -20,7 +20,7 @@ name                   type     default   meaning
                                           ``t / c`` and is black from ``(1 + t) / c``
 ``t0``                 float    0.5       eq. 5.2 threshold in [0, 1]
 ``dilation_size``      int      3         selective-dilation window, odd, 3..15
-``dilation_iterations`` int     1         selective-dilation passes (0 = no pre-filter)
+``dilation_iterations`` int     1         selective-dilation passes, 0..64 (0 = none)
 ``remove_isolated``    bool     true      apply eq. 5.2
 ``id_edges``           bool     true      object boundaries (ID edges), 1 px
 ``crease_angle``       float    134       creases: 4-neighbours on one object whose dihedral
@@ -35,7 +35,8 @@ name                   type     default   meaning
 ``bright_fade``        float    0         fade lines out where the beauty's luminance exceeds
                                           this: full below it, none from twice it; 0 = off
 ``near``, ``far``      float    unset     depth range mapped to [0, 1]; unset = the frame's
-                                          finite ``Z`` range
+                                          nearest finite ``Z`` and the larger of its farthest
+                                          and 4x its nearest; background reads 2 (see below)
 =====================  =======  ========  ======================================================
 
 Why these defaults (issue 19): a line drawing holds silhouettes, object boundaries and creases,
@@ -64,6 +65,14 @@ third of a pixel inks it at a third); eq. 5.2 removes fragments shorter than 3 s
 A G-buffer without ``object_id`` (or ``N.X N.Y N.Z``) gets no ID edges (creases) unless they
 were asked for explicitly, which is then an error naming the missing layer: depth alone is
 enough for the defaults.
+
+Depth at any scale (issue 18, against eq. 5.1's plain normalisation): the background reads as
+``D = 2``, a full step beyond every finite pixel (the thesis's OpenGL depth buffer had its far
+plane behind the scene; with the frame's own range the farthest object pixel got the background's
+1 and its outline vanished), and with ``far`` unset the far bound is at least ``4 * near``, so a
+step counts against at least the depth where it happens: a lone sphere's whole outline, and
+nothing inside it from 50 radii on, at camera distances of 2 to 500 radii and scene scales of
+1e-3 to 1e3, with ``far`` given or not (test 80).
 
 Foliage (issue 8, thesis section 4.3): ``leaf_edges`` outlines every leaf primitive, which depth
 contours alone miss where leaves overlap at nearly equal depth (see
@@ -146,12 +155,18 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
     >>> np.asarray(ink).shape                                                # doctest: +SKIP
     (120, 160)
     """
+    if not isinstance(gbuffer, Mapping) and not hasattr(gbuffer, "names"):
+        raise ParameterError(
+            f"lines: expected a GBuffer (or a mapping of layer names to (H, W) arrays), got "
+            f"{type(gbuffer).__name__}; for a depth image alone use lines({{'Z': Z}})"
+        )
     p = check_values("lines", LINES_PARAMS, params)
     check_range(p["near"], p["far"], "lines")
     z, shape = float_image(_layer(gbuffer, L.Z, "depth"), L.Z)
     grid = Grid(shape)
 
-    depth = Field(z, grid, depth_normalizer(z, p["near"], p["far"]))
+    normalizer = depth_normalizer(z, p["near"], p["far"], relative=True, background=2.0)
+    depth = Field(z, grid, normalizer)
     for _ in range(p["dilation_iterations"]):
         d = dilated(depth, p["dilation_size"])
         dr.eval(d)

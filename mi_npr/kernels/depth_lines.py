@@ -30,7 +30,13 @@ Ambiguities of the thesis and how they are resolved here (issue 4):
   (``Z = +inf``) is 1. The thesis works on an OpenGL depth buffer whose far plane lies behind
   everything, so there the background is always farther than any object; with the frame's own
   range the farthest object pixel also gets 1, and its contour against the background vanishes.
-  Give ``far`` (beyond the scene) where that matters.
+  Give ``far`` (beyond the scene) where that matters. The :func:`~mi_npr.kernels.lines` chain
+  (and ``npr_lines``) departs from this plain eq. 5.1 input in two ways (issue 18), so that a
+  lone sphere's whole silhouette is drawn at camera distances of 2 to 500 radii and scene scales
+  of 1e-3 to 1e3, with ``far`` given or not: the background reads as ``D = 2`` (infinitely far:
+  a full step from every finite pixel, whatever ``far`` is), and with ``far`` unset the span is at
+  least 3x ``near`` (``far >= 4 near``), so a step is measured against at least the depth where it
+  happens (scale-free) and a distant object's own relief is not stretched over [0, 1].
 - *Neighbours* outside the image repeat the border pixel, except in eq. 5.2 where they count as
   no contour (0).
 - *Eq. 5.1* is signed: a pixel lights up when a neighbour is *farther*, so contours are 1 px
@@ -97,10 +103,23 @@ def _finite_range(z: Float) -> tuple[Float, Float]:
 
 
 def depth_normalizer(
-    z: Float, near: float | None = None, far: float | None = None
+    z: Float,
+    near: float | None = None,
+    far: float | None = None,
+    *,
+    relative: bool = False,
+    background: float = 1.0,
 ) -> Callable[[Float], Float]:
     """The per-pixel map ``Z -> D`` of :func:`normalize_depth` for the frame ``z`` (flat),
-    to be fused into the kernel that reads the depth."""
+    to be fused into the kernel that reads the depth.
+
+    ``relative`` (the :func:`~mi_npr.kernels.lines` chain): with ``far`` unset, the span
+    ``far - near`` is at least ``near`` itself, i.e. ``far >= 2 near`` for ``near > 0``, so a
+    depth step is measured against at least the depth where it happens and a distant object's
+    own relief is not stretched over the whole [0, 1] range. ``background`` is the value of
+    non-finite ``Z`` (the chain uses 2: the background lies infinitely far, beyond every finite
+    pixel, whatever ``far`` is).
+    """
     check_range(near, far)
     if near is None or far is None:
         lo, hi = _finite_range(z)
@@ -111,6 +130,8 @@ def depth_normalizer(
             f = dr.maximum(f, n)
         if far is not None:
             n = dr.minimum(n, f)
+        elif relative:
+            f = dr.maximum(f, n + 3.0 * dr.maximum(n, 0.0))
     else:
         n, f = opaque(near), opaque(far)
     # A division (not a reciprocal) so that far maps to exactly 1. far == near (a flat frame, or
@@ -119,9 +140,10 @@ def depth_normalizer(
     h = dr.maximum(f * 0.5 - n * 0.5, _F32_MIN)
     span = dr.select(f > n, h, _F32_MIN)
     dr.eval(n, span)
+    bg = float(background)
 
     def normalize(v: Float) -> Float:
-        return dr.select(dr.isfinite(v), dr.clip((v * 0.5 - n * 0.5) / span, 0.0, 1.0), 1.0)
+        return dr.select(dr.isfinite(v), dr.clip((v * 0.5 - n * 0.5) / span, 0.0, 1.0), bg)
 
     return normalize
 

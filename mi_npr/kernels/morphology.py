@@ -13,8 +13,9 @@ background) and defines
   (centre included in the mean);
 
 pixels outside the image repeat the border pixel; ``iterations`` applies the filter that many
-times (0 returns the input); the result is given back as depth (``1 - SD``). The mean is the
-float32 sum of the window times ``1 / (n * n)``. Depth is read with the same policy as eq. 5.1:
+times (0 returns the input); the result is given back as depth (``1 - SD``). ``R_i > m`` is
+decided exactly, as ``n * n * d_i < sum_S d`` in float64 (issue 18: a float32 mean broke exact
+ties by rounding). Depth is read with the same policy as eq. 5.1:
 NaN is background (1) and values are clamped to [0, 1], so the result is finite.
 """
 
@@ -24,8 +25,9 @@ import numbers
 from typing import Any
 
 import drjit as dr
-from drjit.llvm.ad import Float, TensorXf
+from drjit.llvm.ad import Float, Float64, TensorXf
 
+from ..params import MAX_ITERATIONS
 from ._stencil import Field, Grid, float_image, require, sanitize_depth, tensor, window
 
 #: Largest window: an n x n window is n * n gathers unrolled into one kernel.
@@ -44,31 +46,36 @@ def window_size(v: Any) -> str | None:
 
 
 def iteration_count(v: Any) -> str | None:
-    return None if _integer(v) and v >= 0 else "must be an integer >= 0"
+    """The rule for ``iterations``: an integer in 0..MAX_ITERATIONS."""
+    if not _integer(v) or v < 0:
+        return "must be an integer >= 0"
+    return None if v <= MAX_ITERATIONS else f"must be at most {MAX_ITERATIONS}"
 
 
 def dilated(D: Field, size: int) -> Float:
     """One selective dilation (eqs. 5.3-5.4) of a depth field (lazy).
 
-    The test runs on ``R = 1 - D`` as the thesis writes it; the value taken is the window's
-    smallest depth, which is ``1 - max_S R`` without the rounding of going through ``R``, so
+    The test ``R_i > m`` on reversed depth ``R = 1 - D`` is ``d_i < mean(d)``, decided as
+    ``N * d_i < sum(d)`` in float64 (``N = n * n``): the float32 depths, their sum and the
+    products are exact there (for depths in [2^-29, 2], and 0), so ties are ties, not float32
+    rounding of a mean. The value taken is the window's smallest depth (``1 - max_S R``), so
     pixels that keep their value keep it bit for bit.
     """
     offsets = window(size)
     depths = [D.at(dy, dx) for dy, dx in offsets]
-    R = [1.0 - d for d in depths]  # reversed depth, 0 = far
+    wide = [Float64(d) for d in depths]
     centre = offsets.index((0, 0))
-    total, nearest = R[0], depths[0]
-    for r, d in zip(R[1:], depths[1:], strict=True):
-        total, nearest = total + r, dr.minimum(nearest, d)
-    mean = total * (1.0 / len(R))
+    total, nearest = wide[0], depths[0]
+    for w, d in zip(wide[1:], depths[1:], strict=True):
+        total, nearest = total + w, dr.minimum(nearest, d)
+    count = float(len(depths))
     n_above = None
-    for k, r in enumerate(R):
+    for k, w in enumerate(wide):
         if k != centre:
-            above = dr.select(r > mean, 1, 0)
+            above = dr.select(w * count < total, 1, 0)
             n_above = above if n_above is None else n_above + above
     # Na > (n*n - 1) / 2 with an even n*n - 1: Na >= (n*n - 1) / 2 + 1.
-    return dr.select(n_above > (len(R) - 1) // 2, nearest, depths[centre])
+    return dr.select(n_above > (len(depths) - 1) // 2, nearest, depths[centre])
 
 
 def selective_dilation(D: Any, size: int = 3, iterations: int = 1) -> TensorXf:

@@ -41,12 +41,13 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError
+from ..params import MAX_RAYTREE_DEPTH
 from ..raycast import cast, require_jit
 from ..scene import ObjectTable
 from .lights import LightTable, visible_lights
 
 #: Largest accepted ``max_depth``: positions must fit the 32 bits they are stored in.
-MAX_DEPTH = 31
+MAX_DEPTH = MAX_RAYTREE_DEPTH
 
 _M1 = 0xFF51AFD7ED558CCD
 _M2 = 0xC4CEB9FE1A85EC53

@@ -16,10 +16,12 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import mitsuba as mi
 import numpy as np
 
 from .. import io
 from ..errors import SceneError
+from ..params import check_arg, cli_param
 from ..render import render
 from ..scene import camera_of, load_scene, merge_defines, sensor_of
 from .camera import plots_missing, sensor_xml, sphere_image
@@ -52,6 +54,8 @@ def write_best_view(
     no ``sphere`` where :func:`~mi_npr.viewpoint.plots_missing` says why).
     """
     check_measure(measure)
+    depth = check_arg("write_best_view", cli_param("best-view", "--depth"), depth)
+    res = check_arg("write_best_view", cli_param("best-view", "--res"), res)
     scene = load_scene(scene_path, merge_defines(defines, more))
     try:
         check_shapes(scene)
@@ -62,24 +66,26 @@ def write_best_view(
     view = viewing(scene, res=res, ignore=ignore)
     best = search(scene, view, measure, depth)
     out: dict[str, Path] = {}
-    out["sensor"] = io.write_text(d / f"{stem}_best_view.xml", sensor_xml(best, scene))
-    sensor = load_scene(out["sensor"]).sensors()[0]
-    gb = render(scene, sensor=sensor, seed=seed)
-    out["render"] = io.write_png(d / f"{stem}_best_view.png", gb.beauty)
-    if plots_missing():  # the picture needs matplotlib (the plots extra): skipped
-        return best, out
-    dirs, q = sample_sphere(scene, view, measure, samples)
-    front = camera_of(sensor_of(scene)).origin - view.target if scene.sensors() else None
-    if front is not None and not np.any(front):
-        front = None
-    picture = sphere_image(
-        dirs,
-        q,
-        best.direction,
-        best.viewpoints - best.target,
-        front,
-        title=f"{stem}: {measure}, best {best.quality:.4g} (red), evaluated (white)",
-        labels=("seen from the scene's camera", "opposite side"),
-    )
-    out["sphere"] = io.write_png(d / f"{stem}_quality_sphere.png", picture, linear=False)
+    with io.output_set():  # the XML and its PNGs together, or none of them
+        text = sensor_xml(best, scene)
+        sensor = mi.load_string(text).sensors()[0]
+        out["sensor"] = io.write_text(d / f"{stem}_best_view.xml", text)
+        gb = render(scene, sensor=sensor, seed=seed)
+        out["render"] = io.write_png(d / f"{stem}_best_view.png", gb.beauty)
+        if plots_missing():  # the picture needs matplotlib (the plots extra): skipped
+            return best, out
+        dirs, q = sample_sphere(scene, view, measure, samples)
+        front = camera_of(sensor_of(scene)).origin - view.target if scene.sensors() else None
+        if front is not None and not np.any(front):
+            front = None
+        picture = sphere_image(
+            dirs,
+            q,
+            best.direction,
+            best.viewpoints - best.target,
+            front,
+            title=f"{stem}: {measure}, best {best.quality:.4g} (red), evaluated (white)",
+            labels=("seen from the scene's camera", "opposite side"),
+        )
+        out["sphere"] = io.write_png(d / f"{stem}_quality_sphere.png", picture, linear=False)
     return best, out

@@ -46,6 +46,8 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError, SceneError
+from ..memory import check_images
+from ..params import check_arg, cli_param
 from ..scene import camera_of, load_scene, sensor_of, shape_bbox
 from . import idbuffer
 from .measures import MEASURES, Topology, check_measure
@@ -171,6 +173,7 @@ def viewing(
     if not 0.0 < fov < 180.0:
         raise ParameterError(f"fov = {fov!r}: must be in (0, 180) degrees")
     size = idbuffer.image_size(res, aspect)
+    check_images(size[0], size[1], 6, "ID buffers")  # the largest batch (the first level)
     polys = idbuffer.polygons(scene)
     ignore = (ignore,) if isinstance(ignore, str) else tuple(ignore)
     keep = _kept_columns(polys, ignore)  # checks the names first
@@ -330,8 +333,8 @@ def best_view(
     >>> bv.origin, bv.quality, bv.evaluations                         # doctest: +SKIP
     """
     check_measure(measure)
-    if isinstance(depth, bool) or not isinstance(depth, (int, np.integer)) or depth < 0:
-        raise ParameterError(f"depth = {depth!r}: must be a non-negative integer")
+    depth = check_arg("best_view", cli_param("best-view", "--depth"), depth)
+    res = check_arg("best_view", cli_param("best-view", "--res"), res)
     scene = load_scene(scene)
     check_shapes(scene)
     view = viewing(scene, target, radius, res, fov, sensor, ignore)

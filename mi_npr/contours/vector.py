@@ -1,0 +1,366 @@
+"""Vector contours for illustration programs: paths on the objects' true outlines, simplified.
+
+Image coordinates: ``x`` to the right, ``y`` down, pixel ``(i, j)`` spans ``[i, i+1] x [j, j+1]``
+(its centre is ``(i + 0.5, j + 0.5)``), as in SVG with one user unit per pixel.
+
+**Outline points.** Every contour of :mod:`mi_npr.contours.trace` is a cycle of *cracks*: pairs of
+4-adjacent pixels ``p`` (object ``k``) and ``q`` (not ``k``). The true outline crosses the segment
+between their centres, so each crack gets one vertex there, found by bisection with extra rays
+(:func:`mi_npr.raycast.pixel_rays`, the G-buffer's own camera rays): ``iterations`` halvings put it
+within ``2**-iterations`` px of the point where the id changes (12: 0.00024 px). Consecutive
+cracks' vertices, in the follower's order, are the path: marching squares whose vertices lie on
+the outline instead of at the crack midpoints. Without a scene (an id buffer alone) the vertices
+are the crack midpoints.
+
+**The image frame is never a contour.** A crack whose ``q`` lies outside the image is where the
+object meets the frame: it adds no vertex and cuts the cycle, so an object that touches the border
+becomes open paths ending one half-pixel inside the frame at most.
+
+**Simplification.** Douglas-Peucker with ``tolerance`` (default 0.25 px): the kept vertices are
+outline points, and every dropped one lies within ``tolerance`` of the simplified path. A closed
+path is split at its two mutually farthest vertices first.
+
+**Strokes** (:func:`trace_strokes`) turn thin line masks (the ``lines`` layer above 0.5, the
+ray-tree edge classes) into polylines through the pixel centres, walking 8-connected chains from
+their ends and junctions (4-neighbours first, so an L-shaped corner is not cut twice), then
+simplified the same way.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..gbuffer import GBuffer
+from .trace import Grid, check_ids, crack_cycles
+
+#: Pixel offsets of the crack sides d = 0..3 (+x, +y, -x, -y).
+_SIDE = np.array([[1, 0], [0, 1], [-1, 0], [0, -1]], dtype=np.float64)
+
+IdsAt = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True, eq=False)
+class VectorPath:
+    """One piece of an object's outline: ``points`` (N, 2) float64 ``(x, y)`` image positions."""
+
+    object_id: int
+    name: str
+    points: np.ndarray
+    closed: bool
+    is_hole: bool = False
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+class RayIds:
+    """Object ids at film positions, by one camera ray each (``pixel_rays``: the same rays as
+    the G-buffer's pixel centres), in the ids of ``id_mode`` (:mod:`mi_npr.contours.idmode`)."""
+
+    def __init__(self, scene: Any, sensor: Any = 0, id_mode: str = "shape") -> None:
+        from ..raycast import require_jit
+        from ..scene import object_table, sensor_of
+        from .idmode import check_id_mode, id_map
+
+        require_jit("vector contours")
+        self.scene = scene
+        self.sensor = sensor_of(scene, sensor)
+        self.table = object_table(scene)
+        self.map = id_map(scene, check_id_mode(id_mode), self.table) if id_mode != "shape" else None
+
+    def __call__(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        import mitsuba as mi
+
+        from ..raycast import cast, pixel_rays
+
+        if len(x) == 0:
+            return np.zeros(0, np.uint32)
+        ray = pixel_rays(
+            self.sensor, mi.Float(x.astype(np.float32)), mi.Float(y.astype(np.float32))
+        )
+        hits = cast(self.scene, ray, self.table, coherent=False)
+        ids = hits.object_id if self.map is None else hits.ids(self.map)
+        return np.asarray(ids.numpy(), np.uint32)
+
+
+def _bisect(
+    ids_at: IdsAt, start: np.ndarray, step: np.ndarray, k: np.ndarray, iterations: int
+) -> np.ndarray:
+    """Parameter t in (0, 1) along ``start + t * step`` where the id stops being ``k``."""
+    lo = np.zeros(len(start))
+    hi = np.ones(len(start))
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        p = start + mid[:, None] * step
+        inside = ids_at(p[:, 0], p[:, 1]) == k
+        lo = np.where(inside, mid, lo)
+        hi = np.where(inside, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+def douglas_peucker(points: np.ndarray, tolerance: float, closed: bool = False) -> np.ndarray:
+    """The vertices of ``points`` that Douglas-Peucker keeps at ``tolerance`` (first and last
+    always; a closed path is split at its two mutually farthest vertices)."""
+    p = np.asarray(points, np.float64)
+    n = len(p)
+    if n <= 2:
+        return p.copy()
+    if closed:
+        a = 0
+        b = int(np.argmax(np.sum((p - p[0]) ** 2, axis=1)))
+        a = int(np.argmax(np.sum((p - p[b]) ** 2, axis=1)))
+        a, b = min(a, b), max(a, b)
+        if a == b:
+            return p[:1].copy()
+        first = _dp_open(p[a : b + 1], tolerance)
+        second = _dp_open(np.concatenate([p[b:], p[: a + 1]]), tolerance)
+        return np.concatenate([first[:-1], second[:-1]])
+    return _dp_open(p, tolerance)
+
+
+def _dp_open(p: np.ndarray, tolerance: float) -> np.ndarray:
+    keep = np.zeros(len(p), dtype=bool)
+    keep[0] = keep[-1] = True
+    stack = [(0, len(p) - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j <= i + 1:
+            continue
+        seg = p[j] - p[i]
+        rel = p[i + 1 : j] - p[i]
+        length = float(np.hypot(*seg))
+        if length > 0:
+            d = np.abs(seg[0] * rel[:, 1] - seg[1] * rel[:, 0]) / length
+        else:
+            d = np.hypot(rel[:, 0], rel[:, 1])
+        m = int(np.argmax(d))
+        if d[m] > tolerance:
+            keep[i + 1 + m] = True
+            stack += [(i, i + 1 + m), (i + 1 + m, j)]
+    return p[keep]
+
+
+def _runs(valid: np.ndarray) -> list[tuple[int, int]] | None:
+    """Cyclic runs of ``True`` as (start, length); ``None`` when all are ``True``."""
+    n = len(valid)
+    if valid.all():
+        return None
+    if not valid.any():
+        return []
+    s = int(np.flatnonzero(~valid)[0])  # rotate so the sequence starts on a frame crack
+    rolled = np.roll(valid, -s)
+    out: list[tuple[int, int]] = []
+    i = 0
+    while i < n:
+        if rolled[i]:
+            j = i
+            while j < n and rolled[j]:
+                j += 1
+            out.append(((i + s) % n, j - i))
+            i = j
+        else:
+            i += 1
+    return out
+
+
+def vectorize(
+    source: GBuffer | np.ndarray,
+    scene: Any = None,
+    *,
+    sensor: Any = 0,
+    id_mode: str = "shape",
+    objects: Mapping[int, str] | None = None,
+    tolerance: float = 0.25,
+    iterations: int = 12,
+    ids_at: IdsAt | None = None,
+) -> list[VectorPath]:
+    """Every contour of ``source`` (a GBuffer, its ``object_id`` or the ids of ``id_mode``; or
+    an (H, W) id buffer) as :class:`VectorPath` pieces on the true outline (module docstring).
+
+    ``scene`` (with ``sensor``) casts the bisection rays; ``ids_at(x, y)`` may replace it (any
+    function from film positions to ids); with neither, vertices sit at crack midpoints.
+    ``tolerance`` is Douglas-Peucker's, in pixels (0 keeps every vertex).
+    """
+    if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance >= 0):
+        raise ParameterError(f"tolerance = {tolerance!r}: must be a number >= 0 (pixels)")
+    if not isinstance(iterations, int) or not 0 <= iterations <= 40:
+        raise ParameterError(f"iterations = {iterations!r}: must be an integer in 0..40")
+    if isinstance(source, GBuffer):
+        if id_mode != "shape":
+            from .overlay import mode_ids
+
+            ids, names = mode_ids(source, scene, id_mode)
+        else:
+            ids, names = source.object_id, dict(source.objects)
+        objects = objects if objects is not None else names
+    else:
+        ids = source
+    grid = Grid.from_ids(check_ids(ids))
+    cc = crack_cycles(grid)
+    if ids_at is None and scene is not None:
+        ids_at = RayIds(scene, sensor, id_mode)
+    xy = grid.xy(cc.pix).astype(np.float64)
+    nb = cc.pix + grid.offsets4()[cc.side]
+    inside_image = grid.ids[nb] != np.uint32(0xFFFFFFFF)
+    start = xy + 0.5
+    step = _SIDE[cc.side]
+    k = grid.ids[cc.pix]
+    t = np.full(len(cc.pix), 0.5)
+    if ids_at is not None and inside_image.any():
+        sel = np.flatnonzero(inside_image)
+        t[sel] = _bisect(ids_at, start[sel], step[sel], k[sel], iterations)
+    points = start + t[:, None] * step
+    out: list[VectorPath] = []
+    for c in range(len(cc.object_id)):
+        a, b = int(cc.offsets[c]), int(cc.offsets[c + 1])
+        oid = int(cc.object_id[c])
+        name = (objects or {}).get(oid, f"object_{oid}")
+        pts, valid = points[a:b], inside_image[a:b]
+        runs = _runs(valid)
+        if runs is None:
+            simple = douglas_peucker(pts, tolerance, closed=True)
+            out.append(VectorPath(oid, name, simple, True, bool(cc.is_hole[c])))
+            continue
+        for s, n in runs:
+            idx = (s + np.arange(n)) % len(pts)
+            simple = douglas_peucker(pts[idx], tolerance)
+            out.append(VectorPath(oid, name, simple, False, bool(cc.is_hole[c])))
+    return out
+
+
+# --------------------------------------------------------------------------------- strokes
+_N4 = ((1, 0), (0, 1), (-1, 0), (0, -1))
+_ND = ((1, 1), (-1, 1), (-1, -1), (1, -1))
+
+
+def _neighbours(mask: np.ndarray, x: int, y: int) -> list[tuple[int, int]]:
+    h, w = mask.shape
+    out = []
+    for dx, dy in _N4:
+        u, v = x + dx, y + dy
+        if 0 <= u < w and 0 <= v < h and mask[v, u]:
+            out.append((u, v))
+    for dx, dy in _ND:
+        u, v = x + dx, y + dy
+        if not (0 <= u < w and 0 <= v < h and mask[v, u]):
+            continue
+        # a diagonal step that a 4-neighbour already bridges is not an edge of its own
+        if (0 <= x + dx < w and mask[y, x + dx]) or (0 <= y + dy < h and mask[y + dy, x]):
+            continue
+        out.append((u, v))
+    return out
+
+
+def trace_strokes(mask: Any, tolerance: float = 0.25) -> list[np.ndarray]:
+    """Polylines (each (N, 2) float64 through pixel centres) covering a thin (H, W) line mask."""
+    m = np.asarray(mask, dtype=bool)
+    if m.ndim != 2:
+        raise ParameterError(f"stroke mask: expected an (H, W) array, got shape {m.shape}")
+    ys, xs = np.nonzero(m)
+    nbrs = {(int(x), int(y)): _neighbours(m, int(x), int(y)) for x, y in zip(xs, ys, strict=True)}
+    used: set[tuple[tuple[int, int], tuple[int, int]]] = set()
+
+    def walk(a: tuple[int, int], b: tuple[int, int]) -> list[tuple[int, int]]:
+        chain = [a]
+        prev, cur = a, b
+        used.add((a, b))
+        used.add((b, a))
+        while True:
+            chain.append(cur)
+            if len(nbrs[cur]) != 2:
+                return chain
+            nxt = nbrs[cur][0] if nbrs[cur][1] == prev else nbrs[cur][1]
+            if (cur, nxt) in used:
+                return chain
+            used.add((cur, nxt))
+            used.add((nxt, cur))
+            prev, cur = cur, nxt
+
+    lines: list[list[tuple[int, int]]] = []
+    for p in sorted(nbrs, key=lambda q: (q[1], q[0])):  # ends and junctions first
+        if len(nbrs[p]) != 2:
+            if not nbrs[p]:
+                lines.append([p])
+            for q in nbrs[p]:
+                if (p, q) not in used:
+                    lines.append(walk(p, q))
+    for p in sorted(nbrs, key=lambda q: (q[1], q[0])):  # what is left: closed loops
+        for q in nbrs[p]:
+            if (p, q) not in used:
+                lines.append(walk(p, q))
+    return [douglas_peucker(np.asarray(c, np.float64) + 0.5, tolerance) for c in lines]
+
+
+def stroke_layers(
+    gb: GBuffer, tolerance: float = 0.25
+) -> dict[str, tuple[list[np.ndarray], tuple[float, float, float]]]:
+    """The GBuffer's line drawings as SVG stroke layers: ``lines`` (the ``lines.V`` layer above
+    0.5, black) and each ray-tree edge class present (``edges_real``, ... in the overlay's
+    colours), each as polylines (:func:`trace_strokes`)."""
+    from .. import layers as L
+    from ..raytree.render import COLORS
+
+    out: dict[str, tuple[list[np.ndarray], tuple[float, float, float]]] = {}
+    if L.LINES in gb:
+        out[L.LINES.split(".")[0]] = (
+            trace_strokes(gb.numpy(L.LINES) > 0.5, tolerance),
+            (0.0, 0.0, 0.0),
+        )
+    for name, rgb in COLORS.items():
+        if name in gb:
+            out[name.split(".")[0]] = (trace_strokes(gb.numpy(name) > 0.5, tolerance), tuple(rgb))
+    return out
+
+
+def render_vector_contours(
+    scene: Any,
+    *,
+    sensor: int = 0,
+    spp: int | None = None,
+    seed: int = 0,
+    method: str | None = None,
+    id_mode: str | None = None,
+    color: Any = None,
+    tolerance: float = 0.25,
+    defines: Mapping[str, Any] | None = None,
+    **more: Any,
+) -> tuple[GBuffer, list, list[VectorPath], dict]:
+    """:func:`mi_npr.contours.render_contours` plus the vector paths of its contours (rays cast
+    into the same scene) and the stroke layers: ``(gb, contours, paths, strokes)``, what
+    ``mi-npr contours`` writes."""
+    from ..scene import merge_defines
+    from ..session import SceneSession
+    from .overlay import render_contours
+
+    session = SceneSession.open(scene, sensor=sensor, spp=spp, defines=merge_defines(defines, more))
+    loaded = session.scene
+    gb, contours = render_contours(
+        loaded,
+        sensor=sensor,
+        spp=session.spp,
+        seed=seed,
+        method=method,
+        id_mode=id_mode,
+        color=color,
+    )
+    if session.source is not None:
+        gb = gb.with_metadata(**{"mi_npr/scene": session.source})
+    mode = gb.metadata.get("mi_npr/contour_id_mode", "shape")
+    paths = vectorize(gb, loaded, sensor=sensor, id_mode=mode, tolerance=tolerance)
+    return gb, contours, paths, stroke_layers(gb, tolerance)
+
+
+__all__ = [
+    "RayIds",
+    "VectorPath",
+    "douglas_peucker",
+    "render_vector_contours",
+    "stroke_layers",
+    "trace_strokes",
+    "vectorize",
+]

@@ -1,0 +1,346 @@
+"""Cryptomatte 1.2 layers: anti-aliased id mattes that Nuke's and Blender's Cryptomatte nodes read.
+
+The specification (Friedman and Jones, *Fully Automatic ID Mattes with Support for Motion Blur
+and Transparency*, Psyop 2015; the Cryptomatte 1.2 specification) asks for:
+
+- an id per name: ``MurmurHash3_x86_32`` (seed 0) of its UTF-8 bytes, read as the bits of a
+  float32; a hash whose exponent bits are 0 or 255 (a denormal, an infinity or a NaN) gets bit 23
+  flipped first, as the specification's reference code does;
+- per pixel, the ids seen in it ranked by *coverage* (their share of the pixel's filtered
+  samples), highest first, stored two ranks per RGBA layer: ``{name}00.R`` = id of rank 0,
+  ``.G`` = its coverage, ``.B``/``.A`` = rank 1; ``{name}01`` ranks 2 and 3, and so on;
+- metadata ``cryptomatte/<key>/name`` (the layer name), ``/hash`` (``MurmurHash3_32``),
+  ``/conversion`` (``uint32_to_float32``) and ``/manifest`` (JSON: name -> 8 hex digits of the
+  float's bits), where ``<key>`` is the first 7 hex digits of the MurmurHash3 of the layer name.
+
+Two layers are written: ``CryptoObject`` (shape names, as in the object table) and
+``CryptoMaterial`` (each shape's BSDF: its XML ``id``, so shapes that share a referenced BSDF
+share the matte; an unnamed nested BSDF is named ``<shape>.bsdf``).
+
+**Coverage** comes from the film's own samples and reconstruction filter, not from pixel centres:
+the film's sampler (forked, seeded with ``seed``) draws ``spp`` jittered positions in every
+pixel, one ray each (:func:`mi_npr.raycast.pixel_rays`: lens centre, mid-shutter), and a sample at
+film position ``s`` adds ``f(s.x - c.x) f(s.y - c.y)`` to every pixel of centre ``c`` within the
+filter's radius, as Mitsuba's film splats it (``f`` = the film's ``rfilter.eval``; negative lobes
+of Lanczos or Mitchell are clamped to 0, coverage cannot be negative). Each pixel's weights are
+then divided by its total weight, background included, so the coverages of a pixel that the
+scene covers entirely sum to 1, and of one on the silhouette to the covered share. Which pixels
+a sample reaches follows the filter: the box filter (radius 0.5) keeps every sample in its
+pixel, Mitsuba's default Gaussian (stddev 0.5, radius 2) spreads it over 5 x 5 pixels.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import struct
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from . import layers as L
+from .errors import ParameterError
+from .gbuffer import GBuffer, to_numpy
+from .raycast import cast, pixel_rays
+from .scene import ObjectTable, object_table, sensor_of
+
+OBJECT = L.CRYPTO_OBJECT
+MATERIAL = L.CRYPTO_MATERIAL
+#: Ranks stored per pixel by default (3 RGBA layers), as Nuke's and Blender's writers do.
+DEFAULT_LEVELS = 6
+#: Dense accumulation holds (pixels x names) float64 weights; beyond this it is an error.
+_MAX_CELLS = 1 << 27
+
+
+def murmurhash3_32(data: bytes | str, seed: int = 0) -> int:
+    """MurmurHash3_x86_32 (Austin Appleby's reference algorithm) as an unsigned int."""
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    c1, c2, mask = 0xCC9E2D51, 0x1B873593, 0xFFFFFFFF
+    h = seed & mask
+    n = len(data) // 4 * 4
+    for (k,) in struct.iter_unpack("<I", data[:n]):
+        k = (k * c1) & mask
+        k = ((k << 15) | (k >> 17)) & mask
+        k = (k * c2) & mask
+        h ^= k
+        h = ((h << 13) | (h >> 19)) & mask
+        h = (h * 5 + 0xE6546B64) & mask
+    tail = data[n:]
+    if tail:
+        k = int.from_bytes(tail, "little")
+        k = (k * c1) & mask
+        k = ((k << 15) | (k >> 17)) & mask
+        k = (k * c2) & mask
+        h ^= k
+    h ^= len(data)
+    h ^= h >> 16
+    h = (h * 0x85EBCA6B) & mask
+    h ^= h >> 13
+    h = (h * 0xC2B2AE35) & mask
+    h ^= h >> 16
+    return h
+
+
+def id_bits(name: str) -> int:
+    """The float32 bits of ``name``'s Cryptomatte id (no denormal, infinity or NaN)."""
+    h = murmurhash3_32(name)
+    exponent = (h >> 23) & 0xFF
+    if exponent in (0, 255):
+        h ^= 1 << 23
+    return h
+
+
+def name_id(name: str) -> float:
+    """``name``'s Cryptomatte id as a float (the value stored in the id channels)."""
+    return float(np.array([id_bits(name)], np.uint32).view(np.float32)[0])
+
+
+def layer_key(layer: str) -> str:
+    """The metadata key of a Cryptomatte layer: 7 hex digits of MurmurHash3 of its name."""
+    return f"{murmurhash3_32(layer):08x}"[:7]
+
+
+def manifest(names: Sequence[str]) -> str:
+    """The ``manifest`` metadata: JSON object name -> 8 hex digits of the id's float bits."""
+    return json.dumps({n: f"{id_bits(n):08x}" for n in sorted(set(names))}, ensure_ascii=False)
+
+
+def metadata(layer: str, names: Sequence[str]) -> dict[str, str]:
+    """The four ``cryptomatte/<key>/...`` attributes of one layer."""
+    prefix = f"cryptomatte/{layer_key(layer)}/"
+    return {
+        prefix + "name": layer,
+        prefix + "hash": "MurmurHash3_32",
+        prefix + "conversion": "uint32_to_float32",
+        prefix + "manifest": manifest(names),
+    }
+
+
+def material_names(table: ObjectTable) -> dict[int, str]:
+    """Object id -> the name of its shape's BSDF (XML ``id``, else ``<shape>.bsdf``)."""
+    out = {}
+    for oid, shape in table.shapes.items():
+        bsdf = shape.bsdf()
+        name = bsdf.id() if bsdf is not None else ""
+        out[oid] = name if name else f"{table.names[oid]}.bsdf"
+    return out
+
+
+# ------------------------------------------------------------------------------------- coverage
+def _samples(
+    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, spp: int, seed: int
+) -> tuple[mi.Float, mi.Float, mi.UInt32]:
+    """Film positions (x, y) of ``spp`` jittered samples per pixel and the object id each sees.
+    Sample ``i`` belongs to pixel ``i // spp`` (raster order), as in Mitsuba's wavefront."""
+    w, h = (int(v) for v in sensor.film().crop_size())
+    n = w * h * spp
+    sampler = sensor.sampler().fork()
+    sampler.set_sample_count(spp)
+    sampler.set_samples_per_wavefront(spp)
+    sampler.seed(seed, n)
+    u = sampler.next_2d()
+    idx = dr.arange(mi.UInt32, n) // spp
+    x = mi.Float(idx % w) + u.x
+    y = mi.Float(idx // w) + u.y
+    ids = cast(scene, pixel_rays(sensor, x, y), table, coherent=False).object_id
+    dr.eval(x, y, ids)
+    return x, y, ids
+
+
+def coverage(
+    x: Any,
+    y: Any,
+    ids: Any,
+    n_ids: int,
+    width: int,
+    height: int,
+    rfilter: mi.ReconstructionFilter,
+) -> np.ndarray:
+    """Per-pixel filtered share of every id: (H * W, n_ids + 1) float64, column 0 the
+    background; each row sums to 1 (or is 0 where no sample reaches the pixel).
+
+    ``x``, ``y``: film positions of the samples (``mi.Float`` or numpy), ``ids`` their ids
+    (0..n_ids). A sample adds ``f(x - cx) f(y - cy)`` (``rfilter.eval``, clamped at 0) to each
+    pixel of centre ``(cx, cy)`` within the filter's radius.
+    """
+    cells = width * height * (n_ids + 1)
+    if cells > _MAX_CELLS:
+        raise ParameterError(
+            f"cryptomatte: {width}x{height} pixels x {n_ids + 1} names is too many to rank "
+            f"({cells} cells, at most {_MAX_CELLS})"
+        )
+    x, y, ids = mi.Float(x), mi.Float(y), mi.UInt32(ids)
+    radius = float(rfilter.radius())
+    reach = max(0, math.ceil(radius - 0.5))  # pixels a sample reaches on each side
+    px, py = mi.Int32(dr.floor(x)), mi.Int32(dr.floor(y))
+    acc = dr.zeros(mi.Float, cells)
+
+    def weight(d: Any) -> Any:
+        return dr.select(dr.abs(d) < radius, dr.maximum(rfilter.eval(d), 0.0), 0.0)
+
+    # The filter is separable: 2 * reach + 1 weights per axis, each pixel offset a product.
+    wx = [weight(x - (mi.Float(px + dx) + 0.5)) for dx in range(-reach, reach + 1)]
+    wy = [weight(y - (mi.Float(py + dy) + 0.5)) for dy in range(-reach, reach + 1)]
+    dr.eval(*wx, *wy)
+    for j, dy in enumerate(range(-reach, reach + 1)):
+        qy = py + dy
+        for i, dx in enumerate(range(-reach, reach + 1)):
+            qx = px + dx
+            wgt = wx[i] * wy[j]
+            ok = (wgt > 0) & (qx >= 0) & (qx < width) & (qy >= 0) & (qy < height)
+            key = (mi.UInt32(qy) * width + mi.UInt32(qx)) * (n_ids + 1) + ids
+            dr.scatter_reduce(dr.ReduceOp.Add, acc, wgt, key, ok)
+            dr.eval(acc)
+    table = to_numpy(acc).astype(np.float64).reshape(width * height, n_ids + 1)
+    total = table.sum(axis=1, keepdims=True)
+    return np.divide(table, total, out=np.zeros_like(table), where=total > 0)
+
+
+def ranked_layers(
+    cov: np.ndarray, id_values: np.ndarray, layer: str, width: int, height: int, levels: int
+) -> dict[str, np.ndarray]:
+    """The ``{layer}00`` ... RGBA channels from a coverage table (column 0 = background, not
+    stored): ranks by decreasing coverage, ties by column; empty ranks hold id 0, coverage 0."""
+    fg = cov[:, 1:]
+    k = min(levels, fg.shape[1])
+    order = np.argsort(-fg, axis=1, kind="stable")[:, :k]
+    c = np.take_along_axis(fg, order, axis=1)
+    ids = np.where(c > 0, id_values[order], np.float32(0.0)).astype(np.float32)
+    out: dict[str, np.ndarray] = {}
+    for rank in range(2 * math.ceil(levels / 2)):
+        name = f"{layer}{rank // 2:02d}"
+        chans = ("R", "G") if rank % 2 == 0 else ("B", "A")
+        have = rank < k
+        idv = ids[:, rank] if have else np.zeros(width * height, np.float32)
+        cv = c[:, rank].astype(np.float32) if have else np.zeros(width * height, np.float32)
+        out[f"{name}.{chans[0]}"] = idv.reshape(height, width)
+        out[f"{name}.{chans[1]}"] = cv.reshape(height, width)
+    return out
+
+
+def cryptomatte(
+    scene: mi.Scene,
+    sensor: int | mi.Sensor = 0,
+    spp: int | None = None,
+    seed: int = 0,
+    levels: int = DEFAULT_LEVELS,
+) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """``CryptoObject`` and ``CryptoMaterial`` layers of a loaded scene, and their metadata.
+
+    ``spp`` defaults to the sensor's sample count; ``levels`` is the number of ranks kept per
+    pixel (rounded up to even: two per RGBA layer).
+    """
+    if not isinstance(levels, int) or isinstance(levels, bool) or levels < 1:
+        raise ParameterError(f"cryptomatte: levels = {levels!r}: must be a positive integer")
+    sensor = sensor_of(scene, sensor)
+    spp = int(spp) if spp else int(sensor.sampler().sample_count())
+    if spp < 1:
+        raise ParameterError(f"cryptomatte: spp = {spp!r}: must be a positive integer")
+    if not dr.is_jit_v(mi.Float):
+        raise ParameterError(
+            f"cryptomatte needs a JIT variant (llvm_*, cuda_*), not {mi.variant()}"
+        )
+    w, h = (int(v) for v in sensor.film().crop_size())
+    table = object_table(scene)
+    rfilter = sensor.film().rfilter()
+    xs, ys, obj = _samples(scene, sensor, table, spp, seed)
+    n_obj = len(table.names)
+    cov_obj = coverage(xs, ys, obj, n_obj, w, h, rfilter)
+    obj_names = [table.names[k] for k in range(1, n_obj + 1)]
+    obj_ids = np.array([name_id(n) for n in obj_names], np.float32)
+    layers = ranked_layers(cov_obj, obj_ids, OBJECT, w, h, levels)
+    # Materials: the objects' columns summed per BSDF name (one shared BSDF, one matte).
+    mats = material_names(table)
+    mat_names = sorted(set(mats.values()))
+    col = np.zeros(n_obj + 1, np.int64)
+    for oid, name in mats.items():
+        col[oid] = 1 + mat_names.index(name)
+    cov_mat = np.zeros((w * h, len(mat_names) + 1), np.float64)
+    np.add.at(cov_mat.T, col, cov_obj.T)
+    mat_ids = np.array([name_id(n) for n in mat_names], np.float32)
+    layers.update(ranked_layers(cov_mat, mat_ids, MATERIAL, w, h, levels))
+    meta = {**metadata(OBJECT, obj_names), **metadata(MATERIAL, mat_names)}
+    meta["mi_npr/cryptomatte"] = json.dumps({"spp": spp, "seed": seed, "levels": levels})
+    return layers, meta
+
+
+def add_cryptomatte(
+    gb: GBuffer,
+    scene: mi.Scene,
+    sensor: int | mi.Sensor = 0,
+    spp: int | None = None,
+    seed: int = 0,
+    levels: int = DEFAULT_LEVELS,
+) -> GBuffer:
+    """``gb`` with the Cryptomatte layers of ``scene`` (rendered as ``gb`` was) and metadata."""
+    layers, meta = cryptomatte(scene, sensor, spp, seed, levels)
+    if (gb.height, gb.width) != next(iter(layers.values())).shape:
+        raise ParameterError("cryptomatte: the GBuffer and the scene's film differ in size")
+    return gb.with_layers(layers).with_metadata(**meta)
+
+
+def render(
+    scene: str | os.PathLike[str] | mi.Scene,
+    *,
+    sensor: int = 0,
+    spp: int | None = None,
+    seed: int = 0,
+    levels: int = DEFAULT_LEVELS,
+    defines: Mapping[str, Any] | None = None,
+    **more: Any,
+) -> GBuffer:
+    """:func:`mi_npr.render` plus the Cryptomatte layers (what ``mi-npr render --cryptomatte``
+    writes); the arguments are :func:`mi_npr.render`'s. A scene whose integrator already has
+    ``cryptomatte`` on gets its layers once."""
+    from .render import render_gbuffer
+    from .scene import merge_defines
+    from .session import SceneSession
+
+    session = SceneSession.open(scene, sensor=sensor, spp=spp, defines=merge_defines(defines, more))
+    integrator = session.scene.integrator()
+    if hasattr(integrator, "npr_gbuffer"):
+        gb = integrator.npr_gbuffer(session, spp=session.spp, seed=seed)
+    else:
+        gb = render_gbuffer(session, beauty=integrator, spp=session.spp, seed=seed)
+    if has_cryptomatte(gb):
+        return gb
+    return add_cryptomatte(gb, session.scene, session.sensor, session.spp, seed, levels)
+
+
+def has_cryptomatte(gb: GBuffer | Mapping[str, Any]) -> bool:
+    names = gb.names if isinstance(gb, GBuffer) else tuple(gb)
+    return any(n.startswith((OBJECT, MATERIAL)) for n in names)
+
+
+def aov_names(levels: int = DEFAULT_LEVELS) -> list[str]:
+    """The Cryptomatte channels in ``mi.render``'s order (after an integrator's own)."""
+    out = []
+    for layer in (OBJECT, MATERIAL):
+        for i in range(math.ceil(levels / 2)):
+            out += [f"{layer}{i:02d}.{c}" for c in "RGBA"]
+    return out
+
+
+__all__ = [
+    "DEFAULT_LEVELS",
+    "MATERIAL",
+    "OBJECT",
+    "add_cryptomatte",
+    "aov_names",
+    "coverage",
+    "cryptomatte",
+    "has_cryptomatte",
+    "id_bits",
+    "layer_key",
+    "manifest",
+    "material_names",
+    "metadata",
+    "murmurhash3_32",
+    "name_id",
+    "render",
+]

@@ -1,0 +1,211 @@
+"""Memory: estimate what a render needs before it starts, against what the process may use.
+
+A film too large for memory used to kill the process (SIGSEGV inside Dr.Jit or numpy). Now
+:func:`check_render` runs first (one call at the start of every render) and raises
+:class:`~mi_npr.errors.MemoryLimitError`, naming the size needed and the figure it exceeds.
+
+The estimate, per render of a ``W x H`` film with ``spp`` samples per pixel:
+
+- ``W * H * PIXEL_BYTES``: the exact G-buffer pass (rays, intersections, the layers as Dr.Jit
+  arrays and their numpy copies), the beauty's film and the layers the integrators add. Measured:
+  ~110 bytes per pixel of peak growth for ``npr_gbuffer`` with a ``path`` beauty on
+  ``scenes_xml/scene1.xml`` at 640x480 and 1280x960; the budget is 160 (post-passes, EXR copy).
+- ``W * H * spp * SAMPLE_BYTES``: the beauty's samples. With Dr.Jit's symbolic loops (the
+  default) a path tracer keeps its per-sample state in registers and only the sample index is
+  materialised (4 bytes); in wavefront mode (symbolic loops off) every sample's state lives in
+  memory (budget 256 bytes). When this term alone would cross the bound, the beauty is
+  rendered in passes (several ``integrator.render`` calls with different seeds, averaged by
+  their sample counts): :func:`check_render` returns how many.
+
+The bound is ``--max-memory`` (``set_max_memory``, or ``$MI_NPR_MAX_MEMORY``) when given, else
+what is available: ``MemAvailable`` of ``/proc/meminfo`` and, under an address-space limit
+(``RLIMIT_AS``, ``ulimit -v``), that limit less what the process has mapped already.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import resource
+from dataclasses import dataclass, replace
+from typing import Any
+
+from .errors import MemoryLimitError, ParameterError
+
+#: Bytes per pixel of a render besides the beauty's samples (see the module docstring).
+PIXEL_BYTES = 160
+#: Bytes per beauty sample with symbolic loops (the sample index) and in wavefront mode.
+SAMPLE_BYTES_SYMBOLIC = 4
+SAMPLE_BYTES_WAVEFRONT = 256
+#: The environment variable that carries ``--max-memory`` (to batch workers too).
+ENV = "MI_NPR_MAX_MEMORY"
+
+_UNITS = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
+_max_memory: int | None = None
+
+
+def parse_size(text: str | int) -> int:
+    """``"4G"``, ``"512M"``, ``"1.5GiB"``, ``"2e9"`` or an int (bytes) as a number of bytes;
+    units are binary (K = 1024). A bad text is a :class:`ParameterError`."""
+    if isinstance(text, int) and not isinstance(text, bool):
+        n: float = text
+    else:
+        m = re.fullmatch(r"\s*([0-9.eE+]+)\s*([kKmMgGtT]?)(?:i?[bB])?\s*", str(text))
+        try:
+            n = float(m[1]) * _UNITS[m[2].upper()] if m else math.nan
+        except ValueError:
+            n = math.nan
+    if not (math.isfinite(n) and 1 <= n < 1 << 60):
+        raise ParameterError(f"max memory {text!r}: expected a size such as 4G, 512M or 2e9")
+    return int(n)
+
+
+def set_max_memory(size: str | int | None) -> None:
+    """Set the bound for this process (``None``: back to what is available)."""
+    global _max_memory
+    _max_memory = None if size is None else parse_size(size)
+
+
+def _gib(n: float) -> str:
+    return f"{n / (1 << 30):.3g} GiB" if n >= 1 << 28 else f"{n / (1 << 20):.3g} MiB"
+
+
+def _meminfo_available() -> int | None:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _mapped() -> int:
+    """Bytes of address space this process has mapped (VmSize)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
+
+def available() -> tuple[int | None, str]:
+    """The bound in bytes and where it comes from (``None``: nothing known, no check)."""
+    if _max_memory is not None:
+        return _max_memory, "--max-memory"
+    env = os.environ.get(ENV)
+    if env:
+        return parse_size(env), f"${ENV}"
+    figures: list[tuple[int, str]] = []
+    avail = _meminfo_available()
+    if avail is not None:
+        figures.append((avail, "available memory (MemAvailable)"))
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft != resource.RLIM_INFINITY:
+        figures.append((max(soft - _mapped(), 0), "the address-space limit (RLIMIT_AS)"))
+    if not figures:
+        return None, "unknown"
+    return min(figures)
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Bytes a render needs: ``fixed`` (pixels) and ``samples`` (the beauty's samples)."""
+
+    width: int
+    height: int
+    spp: int
+    fixed: int
+    samples: int
+
+    @property
+    def total(self) -> int:
+        return self.fixed + self.samples
+
+
+def estimate(width: int, height: int, spp: int, beauty: bool = True) -> Estimate:
+    """What a ``width x height`` render with ``spp`` beauty samples per pixel needs."""
+    import drjit as dr
+
+    pixels = int(width) * int(height)
+    symbolic = bool(dr.flag(dr.JitFlag.SymbolicLoops))
+    per_sample = SAMPLE_BYTES_SYMBOLIC if symbolic else SAMPLE_BYTES_WAVEFRONT
+    samples = pixels * max(int(spp), 1) * per_sample if beauty else 0
+    return Estimate(int(width), int(height), int(spp), pixels * PIXEL_BYTES, samples)
+
+
+def plan(est: Estimate, bound: int | None, figure: str) -> int:
+    """The number of beauty passes that keeps ``est`` under ``bound`` (1: no split), or
+    :class:`MemoryLimitError` naming the size and the figure when nothing does."""
+    if bound is None or est.total <= bound:
+        return 1
+    size = f"{est.width} x {est.height}"
+    if est.fixed < bound and est.spp > 1:
+        passes = math.ceil(est.samples / (bound - est.fixed))
+        if passes <= est.spp:
+            return passes
+    raise MemoryLimitError(
+        f"a {size} render at {est.spp} spp needs about {_gib(est.total)}, more than "
+        f"{_gib(bound)} ({figure}): lower the resolution, or raise the bound with --max-memory"
+    )
+
+
+def check_render(sensor: object, beauty: object | None, spp: int | None, seed: int = 0) -> int:
+    """The checks at the start of a render of ``sensor``'s film: ``spp`` and ``seed`` against
+    the validation table, then memory. Returns the number of beauty passes to use (1 almost
+    always), or raises :class:`ParameterError` / :class:`MemoryLimitError`."""
+    from .params import check_arg, cli_param
+
+    if spp is not None:
+        spp = check_arg("render", replace(cli_param("render", "--spp"), name="spp"), spp)
+    check_arg("render", replace(cli_param("render", "--seed"), name="seed"), seed)
+    film = sensor.film()  # type: ignore[attr-defined]
+    w, h = (int(v) for v in film.crop_size())
+    n = spp if spp else int(sensor.sampler().sample_count())  # type: ignore[attr-defined]
+    bound, figure = available()
+    return plan(estimate(w, h, n, beauty is not None), bound, figure)
+
+
+def pass_counts(spp: int, passes: int) -> list[int]:
+    """``spp`` split into ``passes`` sample counts that differ by at most one."""
+    base, extra = divmod(spp, passes)
+    return [base + (i < extra) for i in range(passes)]
+
+
+def render_passes(
+    integrator: Any, scene: Any, sensor: Any, spp: int, seed: int, passes: int = 1
+) -> Any:
+    """``integrator.render(scene, sensor, seed, spp)``, or with ``passes > 1`` the mean of that
+    many renders of fewer samples with different seeds (weighted by their sample counts): the
+    same estimate of the image, in a fraction of the memory (see :func:`check_render`)."""
+    if passes <= 1:
+        return integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
+    import drjit as dr
+    import mitsuba as mi
+
+    total = spp or int(sensor.sampler().sample_count())
+    acc = None
+    for i, n in enumerate(pass_counts(total, passes)):
+        s = (seed * passes + i) & 0xFFFFFFFF  # distinct seeds, within Mitsuba's uint32
+        img = integrator.render(scene, sensor, seed=s, spp=n, develop=True, evaluate=True)
+        a = mi.TensorXf64(img) * n  # accumulated in float64, in Dr.Jit
+        acc = a if acc is None else acc + a
+        dr.eval(acc)
+    return mi.TensorXf(acc / total)
+
+
+def check_images(width: int, height: int, images: int, what: str) -> None:
+    """The memory check of a pass that holds ``images`` images of ``width x height`` pixels at
+    once (best-view's batched ID buffers): :class:`MemoryLimitError` over the bound."""
+    need = int(width) * int(height) * int(images) * PIXEL_BYTES
+    bound, figure = available()
+    if bound is not None and need > bound:
+        raise MemoryLimitError(
+            f"{images} {what} of {width} x {height} need about {_gib(need)}, more than "
+            f"{_gib(bound)} ({figure}): lower the resolution, or raise the bound with --max-memory"
+        )

@@ -1,0 +1,272 @@
+"""Cryptomatte 1.2: read back with a decoder written here from the specification (its own
+MurmurHash3, checked on published test vectors), masks against the exact object ids where a
+pixel is wholly one object, coverage summing to 1 where the scene covers a pixel, and the
+film-filter splatting against a brute-force loop."""
+
+from __future__ import annotations
+
+import json
+import struct
+
+import numpy as np
+import OpenEXR
+import pytest
+
+import mi_npr
+from mi_npr import cryptomatte as C
+from mi_npr import layers as L
+
+from .helpers import run_cli, scene_xml
+
+
+# ----------------------------------------------------------------- the decoder, from the spec
+def mm3(data: bytes, seed: int = 0) -> int:
+    """MurmurHash3_x86_32 written from the reference C (blocks, tail, fmix32)."""
+
+    def rotl(x: int, r: int) -> int:
+        return ((x << r) | (x >> (32 - r))) & 0xFFFFFFFF
+
+    h = seed
+    nblocks = len(data) // 4
+    for i in range(nblocks):
+        k = int.from_bytes(data[4 * i : 4 * i + 4], "little")
+        k = rotl((k * 0xCC9E2D51) & 0xFFFFFFFF, 15) * 0x1B873593 & 0xFFFFFFFF
+        h = (rotl(h ^ k, 13) * 5 + 0xE6546B64) & 0xFFFFFFFF
+    tail = data[4 * nblocks :]
+    k = 0
+    for j in reversed(range(len(tail))):  # the reference's switch falls through 3, 2, 1
+        k ^= tail[j] << (8 * j)
+    if tail:
+        h ^= rotl((k * 0xCC9E2D51) & 0xFFFFFFFF, 15) * 0x1B873593 & 0xFFFFFFFF
+    h ^= len(data)
+    for shift, mul in ((16, 0x85EBCA6B), (13, 0xC2B2AE35)):
+        h = ((h ^ (h >> shift)) * mul) & 0xFFFFFFFF
+    return h ^ (h >> 16)
+
+
+@pytest.mark.parametrize(
+    ("data", "seed", "expected"),
+    [
+        (b"", 0, 0),
+        (b"", 1, 0x514E28B7),
+        (b"", 0xFFFFFFFF, 0x81F16F39),
+        (b"\0\0\0\0", 0, 0x2362F9DE),
+        (b"hello", 0, 0x248BFA47),
+        (b"The quick brown fox jumps over the lazy dog", 0, 0x2E4FF723),
+    ],
+)
+def test01_murmurhash3_test_vectors(data, seed, expected):
+    assert mm3(data, seed) == expected
+    assert C.murmurhash3_32(data, seed) == expected
+
+
+def spec_id(name: str) -> float:
+    """The specification's name -> float id (flip bit 23 of a 0 or 255 exponent)."""
+    h = mm3(name.encode())
+    if (h >> 23) & 0xFF in (0, 0xFF):
+        h ^= 1 << 23
+    return struct.unpack("<f", struct.pack("<I", h))[0]
+
+
+def test02_ids_and_tails():
+    names = ["", "a", "ab", "abc", "abcd", "ünï", *(f"obj{i}" for i in range(200))]
+    for n in names:
+        assert C.murmurhash3_32(n) == mm3(n.encode())
+        f = np.float32(C.name_id(n))
+        assert f.view(np.uint32) == np.float32(spec_id(n)).view(np.uint32)
+        assert np.isfinite(f) and (f == 0 or abs(f) >= np.finfo(np.float32).tiny)
+    # a name whose hash has exponent 255 (a NaN as raw bits) gets a normal float id
+    special = next(f"n{i}" for i in range(100000) if (mm3(f"n{i}".encode()) >> 23) & 0xFF == 255)
+    assert np.isfinite(C.name_id(special))
+
+
+def decode(path) -> tuple[dict, dict]:
+    """{layer name: (manifest {name: float id}, ranks [(id, coverage) (H, W) arrays])}."""
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        header = dict(f.header())
+        chans = {k: np.array(v.pixels) for k, v in f.channels().items()}
+    out = {}
+    for key, value in header.items():
+        if not (key.startswith("cryptomatte/") and key.endswith("/name")):
+            continue
+        prefix = key[: -len("name")]
+        layer_key = key.split("/")[1]
+        assert layer_key == f"{mm3(value.encode()):08x}"[:7]  # the key is the name's hash
+        assert header[prefix + "hash"] == "MurmurHash3_32"
+        assert header[prefix + "conversion"] == "uint32_to_float32"
+        manifest = {
+            n: struct.unpack(">f", bytes.fromhex(h))[0]
+            for n, h in json.loads(header[prefix + "manifest"]).items()
+        }
+        for n, v in manifest.items():
+            assert np.float32(v).view(np.uint32) == np.float32(spec_id(n)).view(np.uint32)
+        ranks = []
+        i = 0
+        while f"{value}{i:02d}.R" in chans:
+            base = f"{value}{i:02d}."
+            ranks.append((chans[base + "R"], chans[base + "G"]))
+            ranks.append((chans[base + "B"], chans[base + "A"]))
+            i += 1
+        out[value] = (manifest, ranks)
+    return out, chans
+
+
+def matte(ranks, id_value: float) -> np.ndarray:
+    m = np.zeros(ranks[0][0].shape, np.float64)
+    for ids, cov in ranks:
+        m += np.where(ids.view(np.uint32) == np.float32(id_value).view(np.uint32), cov, 0.0)
+    return m
+
+
+SPHERES = """
+    <bsdf type="diffuse" id="red"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf>
+    <shape type="sphere" id="left"><point name="center" x="-0.7" y="0" z="4"/>
+        <float name="radius" value="0.6"/><ref id="red"/></shape>
+    <shape type="sphere" id="right"><point name="center" x="0.7" y="0.1" z="4"/>
+        <float name="radius" value="0.6"/><ref id="red"/></shape>
+    <shape type="sphere" id="small"><point name="center" x="0" y="-0.6" z="3"/>
+        <float name="radius" value="0.25"/></shape>
+    <shape type="rectangle" id="wall"><transform name="to_world"><scale value="1.2"/>
+        <translate x="0" y="0.9" z="6"/></transform></shape>
+"""
+
+
+@pytest.fixture(scope="module", params=["gaussian", "box"])
+def written(request, tmp_path_factory):
+    d = tmp_path_factory.mktemp("crypto")
+    xml = d / "s.xml"
+    xml.write_text(scene_xml(SPHERES, width=48, height=36, spp=8, rfilter=request.param))
+    r = run_cli("render", str(xml), "-o", str(d), "--cryptomatte", "--no-progress")
+    assert r.returncode == 0, r.stderr
+    gb = mi_npr.io.read_exr(d / "s.exr")
+    return gb, decode(d / "s.exr"), request.param
+
+
+def test03_layers_metadata_and_manifest(written):
+    gb, (crypto, _), _ = written
+    assert set(crypto) == {"CryptoObject", "CryptoMaterial"}
+    manifest, ranks = crypto["CryptoObject"]
+    assert set(manifest) == set(gb.objects.values())
+    assert len(ranks) == 6
+    mats, _ = crypto["CryptoMaterial"]
+    # shared referenced BSDF -> one material; unnamed nested ones named after their shape
+    assert set(mats) == {"red", "small.bsdf", "wall.bsdf"}
+    assert L.meaning("CryptoObject01.A") == "Cryptomatte CryptoObject: coverage of rank 3"
+    assert L.meaning("CryptoMaterial00.B").endswith("id (name hash as float) of rank 1")
+    assert L.meaning("CryptoObjectXY.R") == ""
+
+
+def test04_masks_match_exact_ids_where_a_pixel_is_one_object(written):
+    gb, (crypto, _), rfilter = written
+    manifest, ranks = crypto["CryptoObject"]
+    ids = gb.numpy(L.OBJECT_ID).astype(np.int64)
+    r = 3 if rfilter == "gaussian" else 1  # reach of the filter, plus a pixel for thin parts
+    pad = np.pad(ids, r, mode="edge")
+    h, w = ids.shape
+    window = np.stack(
+        [pad[dy : dy + h, dx : dx + w] for dy in range(2 * r + 1) for dx in range(2 * r + 1)]
+    )
+    pure = np.all(window == ids, axis=0)
+    assert pure.sum() > 0.3 * ids.size
+    fractional = 0
+    for oid, name in gb.objects.items():
+        m = matte(ranks, manifest[name])
+        inside = pure & (ids == oid)
+        outside = pure & (ids != oid)
+        assert inside.any(), name
+        np.testing.assert_allclose(m[inside], 1.0, atol=1e-6)
+        np.testing.assert_allclose(m[outside], 0.0, atol=1e-6)
+        fractional += int(((m > 0.02) & (m < 0.98)).sum())
+    assert fractional > 20  # anti-aliased edges, not pixel-centre ids
+
+
+def test05_coverage_sums_to_one_where_covered_and_is_ranked(written):
+    gb, (crypto, _), _ = written
+    for layer in ("CryptoObject", "CryptoMaterial"):
+        _, ranks = crypto[layer]
+        covs = np.stack([c for _, c in ranks]).astype(np.float64)
+        assert np.all(covs >= 0) and np.all(np.diff(covs, axis=0) <= 1e-7)  # sorted
+        total = covs.sum(axis=0)
+        assert total.max() <= 1 + 1e-5
+        ids = gb.numpy(L.OBJECT_ID)
+        pad = np.pad(ids, 3, mode="edge")
+        h, w = ids.shape
+        covered = np.ones_like(ids, bool)
+        for dy in range(7):
+            for dx in range(7):
+                covered &= pad[dy : dy + h, dx : dx + w] > 0
+        np.testing.assert_allclose(total[covered], 1.0, atol=1e-5)
+        assert np.all(total[ids == 0] < 1.0 - 1e-3) or not (ids == 0).any()
+
+
+# ----------------------------------------------------------------- splatting vs brute force
+def brute_coverage(xs, ys, ids, n, w, h, f, radius):
+    acc = np.zeros((h, w, n + 1))
+    for x, y, i in zip(xs, ys, ids, strict=True):
+        for qy in range(h):
+            for qx in range(w):
+                dx, dy = x - (qx + 0.5), y - (qy + 0.5)
+                if abs(dx) < radius and abs(dy) < radius:
+                    acc[qy, qx, i] += max(f(dx), 0.0) * max(f(dy), 0.0)
+    tot = acc.sum(axis=2, keepdims=True)
+    return np.divide(acc, tot, out=np.zeros_like(acc), where=tot > 0).reshape(h * w, n + 1)
+
+
+@pytest.mark.parametrize("kind", ["box", "gaussian", "tent"])
+@pytest.mark.parametrize(("w", "h"), [(1, 1), (5, 3)])
+def test06_splatting_against_a_brute_force_loop(kind, w, h):
+    import mitsuba as mi
+
+    rf = mi.load_dict({"type": kind})
+    rng = np.random.default_rng(7)
+    spp = 5
+    n = 3
+    pix = np.repeat(np.arange(w * h), spp)
+    xs = (pix % w) + rng.random(pix.size)
+    ys = (pix // w) + rng.random(pix.size)
+    ids = rng.integers(0, n + 1, size=pix.size)
+
+    def f(d):
+        return float(np.asarray(rf.eval(mi.Float(np.float32(d)))).ravel()[0])
+
+    ref = brute_coverage(xs, ys, ids, n, w, h, f, rf.radius())
+    got = C.coverage(xs.astype(np.float32), ys.astype(np.float32), ids, n, w, h, rf)
+    np.testing.assert_allclose(got, ref, atol=2e-6)
+    np.testing.assert_allclose(got.sum(axis=1), 1.0, atol=1e-6)
+
+
+# ----------------------------------------------------------------- the integrator parameter
+def test07_integrator_parameter(write_scene):
+    import mitsuba as mi
+
+    path = write_scene(
+        SPHERES,
+        integrator='<integrator type="npr_gbuffer"><boolean name="cryptomatte" value="true"/>'
+        "</integrator>",
+        width=16,
+        height=12,
+    )
+    scene = mi_npr.load_scene(path)
+    names = scene.integrator().aov_names()
+    assert names[-24:] == C.aov_names() and names[-24] == "CryptoObject00.R"
+    img = np.asarray(mi.render(scene))
+    assert img.shape == (12, 16, 3 + len(names))
+    gb = mi_npr.render(path)
+    for name in C.aov_names():
+        np.testing.assert_array_equal(img[..., 3 + names.index(name)], gb.numpy(name))
+    assert any(k.startswith("cryptomatte/") for k in gb.metadata)
+    with pytest.raises(mi_npr.SceneError, match="cryptomatte"):
+        mi_npr.load_scene(
+            write_scene(
+                SPHERES,
+                name="bad.xml",
+                integrator='<integrator type="npr_gbuffer"><string name="cryptomatte" '
+                'value="maybe"/></integrator>',
+            )
+        )
+
+
+def test08_bad_levels_is_a_clear_error(write_scene):
+    scene = mi_npr.load_scene(write_scene(SPHERES))
+    with pytest.raises(mi_npr.ParameterError, match="levels"):
+        C.cryptomatte(scene, levels=0)

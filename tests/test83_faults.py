@@ -1,0 +1,124 @@
+"""Issue 18: faults leave no debris. SIGTERM is handled like SIGINT (exit 143, temporary files
+removed, no partial output set); after a SIGKILL, the next run that writes to the same folder
+removes the dead run's temporary files; an output set is replaced all together or not at all."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+import mi_npr
+from mi_npr.io import _atomic
+
+from .helpers import ROOT, run_cli, scene_xml
+
+BALL = '<shape type="sphere" id="ball"><point name="center" x="0" y="0" z="4"/></shape>'
+
+# A CLI run whose PNG writer stops half-way (its temp file open) and says so.
+SLOW = textwrap.dedent("""\
+    import sys, time
+    import mi_npr, mi_npr.io
+    from mi_npr.io._atomic import atomic_output
+    from mi_npr.cli import main
+
+    def slow_png(path, image, linear=True):
+        with atomic_output(path) as tmp:
+            open(tmp, "wb").write(b"partial")
+            print("READY", flush=True)
+            time.sleep(120)
+
+    mi_npr.io.write_png = slow_png
+    sys.exit(main(["render", sys.argv[1], "-o", sys.argv[2], "--no-progress"]))
+""")
+
+
+def temps(d):
+    return sorted(p.name for p in d.iterdir() if p.name.endswith(".tmp"))
+
+
+def _start(tmp_path):
+    scene = tmp_path / "ball.xml"
+    scene.write_text(scene_xml(BALL))
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", SLOW, str(scene), str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
+    assert proc.stdout.readline().strip() == "READY"
+    assert len(temps(out)) == 2  # the EXR (waiting for its set) and the PNG being written
+    return scene, out, proc
+
+
+def test01_sigterm_exits_cleanly_without_debris(tmp_path):
+    _, out, proc = _start(tmp_path)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143
+    assert err.strip() == "mi-npr: error: terminated"
+    assert list(out.iterdir()) == []  # no temp files, and no EXR without its PNG
+
+
+def test02_sigkill_debris_is_swept_by_the_next_run(tmp_path):
+    scene, out, proc = _start(tmp_path)
+    proc.kill()
+    proc.wait(timeout=60)
+    assert proc.returncode == -signal.SIGKILL
+    left = temps(out)
+    assert len(left) == 2 and all(f".{proc.pid}." in n for n in left)  # the PID is in the name
+    r = run_cli("render", str(scene), "-o", str(out), "--no-progress")
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["ball.exr", "ball.png"]
+
+
+def test03_stale_rules(tmp_path):
+    """Dead PID: removed; live PID (another process): kept; old-style name without a PID:
+    removed only when older than the running process; files of other tools: kept."""
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        names = {
+            f".a.exr.{dead.pid}.abcd_123.tmp": False,
+            f".a.exr.{live.pid}.abcd_123.tmp": True,
+            ".a.png.zzzz9999.tmp": False,
+            ".other.txt": True,
+            "a.tmp": True,
+        }
+        for n in names:
+            (tmp_path / n).write_bytes(b"x")
+        past = time.time() - 3600
+        os.utime(tmp_path / ".a.png.zzzz9999.tmp", (past, past))
+        _atomic.clean_stale(tmp_path)
+        assert {n for n in names if (tmp_path / n).exists()} == {n for n, k in names.items() if k}
+    finally:
+        live.kill()
+        live.wait()
+
+
+def test04_an_output_set_is_all_or_nothing(tmp_path, monkeypatch):
+    """A failure on the PNG (a full disk) must not leave the new EXR beside the old PNG."""
+    rgb = {k: np.zeros((4, 5), np.float32) for k in "RGB"}
+    gb = mi_npr.GBuffer({"Z": np.ones((4, 5), np.float32), **rgb})
+    old = mi_npr.io.write_outputs(gb, tmp_path, "x")
+    before = {p.name: p.read_bytes() for p in old}
+
+    def full_disk(path, image, linear=True):
+        with _atomic.atomic_output(path) as tmp:
+            open(tmp, "wb").write(b"part")
+            raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(mi_npr.io, "write_png", full_disk)
+    new = mi_npr.GBuffer({"Z": np.full((4, 5), 2.0, np.float32), **rgb})
+    with pytest.raises(mi_npr.OutputError, match="No space left"):
+        mi_npr.io.write_outputs(new, tmp_path, "x")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # no temp, no mix
