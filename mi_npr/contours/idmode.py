@@ -43,8 +43,8 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError
-from ..meshes import face_components
-from ..scene import ObjectTable, object_table, shape_bbox
+from ..scene import ObjectTable, object_table
+from .parts import mesh_parts
 
 ID_MODES = ("shape", "primitive", "component", "material", "silhouette")
 #: The modes whose ids depend on the object only (not on the primitive): ray trees take these.
@@ -87,10 +87,8 @@ def selected(
     }
 
 
-def _mesh_arrays(shape: mi.Shape) -> tuple[np.ndarray, np.ndarray]:
-    F = np.asarray(shape.faces_buffer().numpy(), np.int64).reshape(-1, 3)
-    V = np.asarray(shape.vertex_positions_buffer().numpy(), np.float32).reshape(-1, 3)
-    return F, V
+def _splittable(shape: mi.Shape) -> bool:
+    return bool(shape.is_mesh()) and shape.primitive_count() > 1
 
 
 @dataclass
@@ -127,10 +125,38 @@ class IdMap:
         """(K, 2, 3) bounding boxes ``[min, max]`` of every shape and of every connected
         component of a mesh, *whatever the id_mode*: the parts of one shape (the leaves of a
         foliage mesh) can hide between corner rays as well as small shapes can, and so can the
-        holes between them. Computed on first use (only ray-cast mode needs them)."""
+        holes between them. Each shape's box comes first, then its components' (when it has
+        more than one). Computed on first use (only ray-cast mode needs them)."""
         if self._boxes is None:
-            self._boxes = _part_boxes(self.table)
+            sids = np.arange(1, len(self.table) + 1)
+            shapes, (parts, owner) = self.shape_boxes(), self.part_boxes(sids)
+            where = np.searchsorted(owner, sids, side="right")
+            chunks = np.split(parts, where[:-1])
+            self._boxes = np.concatenate(
+                [np.concatenate([shapes[i : i + 1], chunks[i]]) for i in range(len(sids))]
+                or [np.zeros((0, 2, 3))]
+            )
         return self._boxes
+
+    def shape_boxes(self) -> np.ndarray:
+        """(N, 2, 3) world bounding box of each shape, in object id order (ids 1..N)."""
+        boxes = []
+        for sid in range(1, len(self.table) + 1):
+            bb = self.table.shapes[sid].bbox()  # as shape_bbox, ~10x faster per shape
+            boxes.append((*bb.min, *bb.max))
+        return np.asarray(boxes, np.float64).reshape(-1, 2, 3)
+
+    def part_boxes(self, sids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Boxes (K, 2, 3) of the connected components of shapes ``sids`` (object ids) that are
+        meshes with more than one component, and the object id of each box (sorted like
+        ``sids``). Cached per mesh (:mod:`mi_npr.contours.parts`)."""
+        meshes = [int(s) for s in sids if _splittable(self.table.shapes[int(s)])]
+        parts = mesh_parts([self.table.shapes[s] for s in meshes])
+        boxes = [p.boxes for p in parts if p.count > 1]
+        owner = [np.full(p.count, s) for s, p in zip(meshes, parts, strict=True) if p.count > 1]
+        if not boxes:
+            return np.zeros((0, 2, 3)), np.zeros(0, np.int64)
+        return np.concatenate(boxes), np.concatenate(owner).astype(np.int64)
 
     def apply(self, object_id: Any, prim_id: Any) -> Any:
         """Mode ids of G-buffer layers ``object_id``/``prim_id`` ((H, W) -> (H, W) uint32):
@@ -167,23 +193,6 @@ class IdMap:
         return dr.gather(mi.UInt32, lut, slot)
 
 
-def _part_boxes(table: ObjectTable) -> np.ndarray:
-    boxes = []
-    for shape in table.shapes.values():
-        boxes.append(shape_bbox(shape))
-        if shape.is_mesh() and shape.primitive_count() > 1:
-            F, V = _mesh_arrays(shape)
-            comp = face_components(F, V)
-            if comp.max() > 0:
-                lo = np.full((comp.max() + 1, 3), np.inf)
-                hi = np.full((comp.max() + 1, 3), -np.inf)
-                for j in range(3):
-                    np.minimum.at(lo, comp, V[F[:, j]])
-                    np.maximum.at(hi, comp, V[F[:, j]])
-                boxes.extend(np.stack([lo, hi], axis=1))
-    return np.asarray(boxes, np.float64).reshape(-1, 2, 3)
-
-
 def id_map(
     scene: mi.Scene,
     id_mode: str = "shape",
@@ -204,6 +213,10 @@ def id_map(
     slot, next_id = 1, 1
     grouped: dict[str, int] = {}  # material / silhouette name -> id
     materials = np.asarray(table._material_lut.numpy(), np.int64) if id_mode == "material" else None
+    comps = {}  # object id -> Parts: every mesh's components in one go (cached per mesh)
+    if id_mode == "component":
+        sids = [sid for sid in range(1, n + 1) if _splittable(table.shapes[sid])]
+        comps = dict(zip(sids, mesh_parts([table.shapes[sid] for sid in sids]), strict=True))
     for sid in range(1, n + 1):
         shape, name = table.shapes[sid], table.names[sid]
         base[sid] = slot
@@ -223,14 +236,10 @@ def id_map(
             slot += 1
             continue
         parts = None  # per-primitive part index, when the shape is split
-        if id_mode != "shape" and shape.is_mesh() and shape.primitive_count() > 1:
-            F, V = _mesh_arrays(shape)
-            if id_mode == "primitive":
-                parts = np.arange(len(F), dtype=np.int64)
-            else:
-                comp = face_components(F, V)
-                if comp.max() > 0:
-                    parts = comp
+        if id_mode == "primitive" and _splittable(shape):
+            parts = np.arange(shape.primitive_count(), dtype=np.int64)
+        elif sid in comps and comps[sid].count > 1:
+            parts = comps[sid].labels
         if parts is None:
             if id_mode == "shape":  # shape ids stay the object table's, whatever is selected
                 next_id = sid

@@ -17,7 +17,10 @@ from them; both cast rays on demand instead of rendering an ID buffer. :func:`tr
    box (clipped to the image) is cast, in one batch. Its cost is proportional to the small
    objects' screen area. Boxes are projected with the sensor's ``sample_direction``, or along
    the parallel rays of an orthographic camera; objects whose box crosses the camera plane,
-   and other sensors without ``sample_direction``, are not guarded.
+   and other sensors without ``sample_direction``, are not guarded. A mesh's component boxes
+   are projected only where its own box does not already cover them (a guarded box, or one
+   off the image, holds theirs); the components of all meshes are found in one vectorised
+   pass and kept per mesh (:mod:`mi_npr.contours.parts`), so a scene's later calls reuse them.
 3. **Following** (section 3.2). Every pair of 4-adjacent known pixels with different ids is a crack
    of a contour (see :mod:`mi_npr.contours.trace`); the follower needs, for each crack, the two
    pixels ahead of it (and, to grow in both directions at once, the two behind it). Those are cast
@@ -43,6 +46,24 @@ and random sphere scenes for equality with buffer mode; the notebook counts the 
 Every ray is the pixel-centre ray of the G-buffer pass, cast by :func:`mi_npr.raycast.cast`
 (same rays, same intersection, same id lookup), so the ids equal the ``object_id`` layer's and
 each pixel's id is cast at most once (a cache of known pixels).
+
+**Batches in Dr.Jit.** The cache is two Dr.Jit arrays over the padded grid of
+:class:`~mi_npr.contours.trace.Grid` (``ids``, and ``known``: the outside ring is known), and
+every batch is built, deduplicated and cast without leaving Dr.Jit (:meth:`Caster.cast_jit`):
+the candidate pixels of a batch are a ``UInt32`` array with repeats; those not known yet scatter
+their lane number into a per-pixel slot and the lane whose number stays is the one that casts
+(one lane per pixel), ``dr.compress`` lists them, :func:`~mi_npr.raycast.cast` intersects
+their rays, and two scatters fill the cache. A refinement level is the blocks of the level as
+``UInt32`` arrays: each block gives four child lanes, and the children that exist (the block's
+corners differ, and it is longer than one pixel step along that axis) are compressed; their
+corners are the next batch. A following round takes the pixels cast last, 8 lanes each (the
+cracks on its four sides and on its neighbours' sides facing it; 4 in the first round, when
+every known pixel is in it), compresses the cracks that exist and asks for their 4 pixels each.
+Host synchronisations are the ``dr.compress`` calls (two per level and per round, ~20 us
+each); the cost follows the number of pixels a batch looks at, not the image size. The cracks
+of the final partial map are found in Dr.Jit too, and the cache is read back once for the
+contour tracer (:func:`~mi_npr.contours.trace.contours_from_grid`, numpy and scipy); the paper's
+walk (``method="code_direction"``) may still ask for more pixels, cast the same way.
 """
 
 from __future__ import annotations
@@ -93,36 +114,122 @@ class TraceStats:
 
 
 class Caster:
-    """Computes pixel ids on demand into a :class:`~mi_npr.contours.trace.Grid`, each pixel at
-    most once (the grid's ``known`` mask is the cache). Subclasses say how: :class:`RayCaster`
-    casts pixel-centre rays, :class:`BufferCaster` reads an ID buffer (tests, what-if studies)."""
+    """Computes pixel ids on demand, each pixel at most once. The cache is two Dr.Jit arrays of
+    the padded grid's layout (:class:`~mi_npr.contours.trace.Grid`): ``ids`` and ``known``;
+    :attr:`grid` reads them back for the contour tracer. Subclasses say how ids are computed:
+    :class:`RayCaster` casts pixel-centre rays, :class:`BufferCaster` reads an ID buffer (tests,
+    what-if studies)."""
 
     def __init__(self, height: int, width: int):
-        self.grid = Grid.empty(height, width)
+        self.height, self.width, self.stride = height, width, width + 2
+        empty = Grid.empty(height, width)
+        assert empty.known is not None
+        self.ids = mi.UInt32(empty.ids)  # padded ids; the ring is OUTSIDE
+        self.known = mi.Bool(empty.known)  # the ring is known
+        self._claim = dr.empty(mi.UInt32, len(empty.ids))  # one lane per pixel (cast_jit)
+        s = self.stride
+        self.offsets = mi.UInt32(np.array([1, s, -1, -s], np.int64).astype(np.uint32))
+        self._grid: Grid | None = None
+        self._cast: list[mi.UInt32] = []  # the pixels computed, one array per batch
         self.stats = TraceStats(width, height)
 
-    def compute(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Ids (uint32) of pixels ``(x, y)``."""
+    def compute_jit(self, pix: mi.UInt32) -> mi.UInt32:
+        """Ids of the pixels at flat padded indices ``pix`` (all distinct and inside)."""
         raise NotImplementedError
 
-    def guard_boxes(self) -> np.ndarray | None:
-        """(K, 4) pixel boxes ``x0, y0, x1, y1`` of objects that may hide between corner rays
+    def guard_boxes(self, macro: int = MACRO) -> np.ndarray | None:
+        """(K, 4) film-space boxes ``x0, y0, x1, y1`` of objects that may hide between corner rays
         (step 2), or ``None`` when unknown."""
         return None
 
-    def cast(self, idx: np.ndarray) -> np.ndarray:
-        """Compute the unknown pixels among flat padded indices ``idx``; returns those computed."""
-        g = self.grid
-        assert g.known is not None
-        idx = np.asarray(idx, np.int64).reshape(-1)
-        idx = distinct(idx[~g.known[idx]])
-        if len(idx) == 0:
-            return idx
-        g.ids[idx] = self.compute(idx % g.stride - 1, idx // g.stride - 1)
-        g.known[idx] = True
-        self.stats.rays_cast += len(idx)
+    def index(self, x: Any, y: Any) -> mi.UInt32:
+        """Flat padded index of pixels ``(x, y)`` (numpy or Dr.Jit integers)."""
+        if isinstance(x, np.ndarray):
+            x = mi.UInt32(np.ascontiguousarray(x, np.uint32).reshape(-1))
+            y = mi.UInt32(np.ascontiguousarray(y, np.uint32).reshape(-1))
+        if dr.width(x) == 0:
+            return mi.UInt32()
+        return (y + 1) * self.stride + x + 1
+
+    def cast_jit(self, pix: mi.UInt32, active: mi.Bool | bool = True) -> mi.UInt32:
+        """Compute the unknown pixels among flat padded indices ``pix`` (active lanes; repeats
+        allowed) in one batch; returns the distinct pixels computed."""
+        if dr.width(pix) == 0:
+            return mi.UInt32()
+        dr.eval(pix)  # what follows is then the same kernels for every caller (compiled once)
+        new = self._unknown(pix, mi.Bool(active))
+        n = dr.width(new)
+        if n == 0:
+            return new
+        # Nothing else refers to ids / known now: the scatters write in place (no copy).
+        dr.scatter(self.ids, self.compute_jit(new), new)
+        dr.scatter(self.known, True, new)
+        dr.eval(self.ids, self.known)
+        self._grid = None
+        self._cast.append(new)
+        self.stats.rays_cast += n
         self.stats.launches += 1
-        return idx
+        return new
+
+    def _unknown(self, pix: mi.UInt32, active: mi.Bool) -> mi.UInt32:
+        """The distinct unknown pixels among the active ``pix``: a scatter of lane numbers
+        into one slot per pixel, and the lane whose number stays is the one that casts."""
+        need = active & ~dr.gather(mi.Bool, self.known, pix, active)
+        lane = dr.arange(mi.UInt32, dr.width(pix))
+        dr.scatter(self._claim, lane, pix, need)
+        win = need & (dr.gather(mi.UInt32, self._claim, pix, need) == lane)
+        return dr.gather(mi.UInt32, pix, dr.compress(win))  # evaluated with the cast
+
+    def cast_so_far(self) -> mi.UInt32:
+        """Every pixel computed so far (flat padded indices, each once)."""
+        if not self._cast:
+            return mi.UInt32()
+        if len(self._cast) > 1:
+            self._cast = [dr.concat(self._cast)]
+        return self._cast[0]
+
+    def cracks(self) -> tuple[np.ndarray, np.ndarray]:
+        """The cracks among the pixels computed so far (:func:`~mi_npr.contours.trace.cycles`'s
+        partial-grid rule: an object pixel and a known 4-neighbour of another id), as numpy
+        ``(pixel, side)`` sorted by ``pixel * 4 + side``; found in Dr.Jit, sorted in numpy."""
+        U = mi.UInt32
+        done = self.cast_so_far()
+        if dr.width(done) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        lane = dr.arange(U, 4 * dr.width(done))
+        p = dr.gather(U, done, lane >> 2)
+        q = p + dr.gather(U, self.offsets, lane & 3)
+        k = dr.gather(U, self.ids, p)
+        crack = (k != 0) & dr.gather(mi.Bool, self.known, q) & (dr.gather(U, self.ids, q) != k)
+        sel = dr.compress(crack)
+        if dr.width(sel) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        key = dr.gather(U, done, sel >> 2) * 4 + (sel & 3)
+        key = np.sort(np.asarray(key.numpy(), np.int64))
+        return key >> 2, key & 3
+
+    @property
+    def grid(self) -> Grid:
+        """The cache read back as a numpy :class:`~mi_npr.contours.trace.Grid` (ids, known)."""
+        if self._grid is None:
+            ids = np.array(self.ids.numpy(), np.uint32)
+            known = np.array(self.known.numpy(), bool)
+            self._grid = Grid(self.height, self.width, ids, known)
+        return self._grid
+
+    def cast(self, idx: np.ndarray) -> np.ndarray:
+        """Compute the unknown pixels among flat padded indices ``idx`` (numpy); returns those
+        computed, sorted. The numpy :attr:`grid` is updated in place (the contour tracer's
+        ``fetch``)."""
+        g = self.grid
+        new = self.cast_jit(mi.UInt32(np.asarray(idx, np.int64).reshape(-1).astype(np.uint32)))
+        done = np.asarray(new.numpy(), np.int64)
+        if len(done):
+            assert g.known is not None
+            g.ids[done] = np.asarray(dr.gather(mi.UInt32, self.ids, new).numpy())
+            g.known[done] = True
+        self._grid = g
+        return np.sort(done)
 
 
 class BufferCaster(Caster):
@@ -130,10 +237,11 @@ class BufferCaster(Caster):
 
     def __init__(self, ids: np.ndarray):
         super().__init__(*ids.shape)
-        self.ids = np.asarray(ids, np.uint32)
+        self.buffer = mi.UInt32(np.ascontiguousarray(ids, np.uint32).reshape(-1))
 
-    def compute(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return self.ids[y, x]
+    def compute_jit(self, pix: mi.UInt32) -> mi.UInt32:
+        x, y = pix % self.stride - 1, pix // self.stride - 1
+        return dr.gather(mi.UInt32, self.buffer, y * self.width + x)
 
 
 class RayCaster(Caster):
@@ -142,18 +250,32 @@ class RayCaster(Caster):
     def __init__(self, scene: mi.Scene, sensor: mi.Sensor, ids: IdMap):
         w, h = film_size(sensor)
         super().__init__(h, w)
-        self.scene, self.sensor, self.ids = scene, sensor, ids
+        self.scene, self.sensor, self.id_map = scene, sensor, ids
 
-    def compute(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        ray = pixel_rays(self.sensor, *pixel_centres(x, y))
-        hits = cast(self.scene, ray, self.ids.table)
-        return np.asarray(hits.ids(self.ids).numpy(), np.uint32).reshape(-1)
+    def compute_jit(self, pix: mi.UInt32) -> mi.UInt32:
+        ray = pixel_rays(self.sensor, *pixel_centres(pix % self.stride - 1, pix // self.stride - 1))
+        return cast(self.scene, ray, self.id_map.table).ids(self.id_map)
 
-    def guard_boxes(self) -> np.ndarray | None:
-        """Pixel boxes of the shapes (and components) from their projected bounding boxes."""
-        boxes = self.ids.boxes
+    def guard_boxes(self, macro: int = MACRO) -> np.ndarray | None:
+        """Pixel boxes of the shapes, and of the components of the meshes whose own box does
+        not already cover them: a mesh whose box is guarded whole, or lies off the image, needs
+        no component boxes (theirs lie inside its box, and project inside its projection)."""
+        uv, front = self._project(self.id_map.shape_boxes())
+        if uv is None:
+            return None
+        _, _, small, off = pixel_rects(uv, self.grid.width, self.grid.height, macro)
+        covered = front & (small | off)
+        parts, _ = self.id_map.part_boxes(np.flatnonzero(~covered) + 1)
+        puv, pfront = self._project(parts)
+        if puv is None:
+            return None
+        return np.concatenate([uv[front], puv[pfront]])
+
+    def _project(self, boxes: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+        """Film-space boxes (K, 4) ``u0, v0, u1, v1`` of world boxes (K, 2, 3), and which of
+        them lie wholly in front of the camera (the others cannot be projected)."""
         if len(boxes) == 0:
-            return np.zeros((0, 4))
+            return np.zeros((0, 4)), np.zeros(0, dtype=bool)
         sel = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
         corners = boxes[:, sel, [0, 1, 2]]  # (K, 8, 3)
         cam = camera_of(self.sensor)
@@ -167,10 +289,23 @@ class RayCaster(Caster):
         except Exception:  # no sample_direction (orthographic): parallel rays are affine
             uv = _affine_projection(self.sensor, corners.reshape(-1, 3))
             if uv is None:
-                return None
+                return None, np.zeros(0, dtype=bool)
         uv = uv.reshape(-1, 8, 2)
         front = (depth > cam.near_clip).all(axis=1) & np.isfinite(uv).all(axis=(1, 2))
-        return np.concatenate([uv.min(axis=1), uv.max(axis=1)], axis=1)[front]
+        return np.concatenate([uv.min(axis=1), uv.max(axis=1)], axis=1), front
+
+
+def pixel_rects(
+    boxes: np.ndarray, width: int, height: int, macro: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Step 2's pixel rectangles of film-space boxes (K, 4): ``lo``, ``hi`` (K, 2) inclusive
+    pixel corners, one pixel of margin, clipped to the image; ``small`` where at most two macro
+    pixels wide or tall (guarded); ``off`` where nothing is left after clipping."""
+    lo = np.maximum(np.floor(boxes[:, :2]) - 1, 0)
+    hi = np.minimum(np.ceil(boxes[:, 2:]) + 1, [width - 1, height - 1])
+    off = (hi < lo).any(axis=1)
+    small = ((hi - lo) <= 2 * macro).any(axis=1) & ~off
+    return lo, hi, small, off
 
 
 def _affine_projection(sensor: mi.Sensor, points: np.ndarray) -> np.ndarray | None:
@@ -198,87 +333,125 @@ def _grid_points(n: int, step: int) -> np.ndarray:
     return distinct(np.r_[np.arange(0, n, step), n - 1])
 
 
-def refine(caster: Caster, macro: int = MACRO) -> np.ndarray:
-    """Step 1: macro-pixel corners, then the split blocks' new corners; every pixel cast."""
-    g = caster.grid
-    xs, ys = _grid_points(g.width, macro), _grid_points(g.height, macro)
+def refine(caster: Caster, macro: int = MACRO) -> None:
+    """Step 1: macro-pixel corners, then the split blocks' new corners, one batch per level.
+    The blocks of a level are Dr.Jit arrays: each block gives four child lanes, the ones that
+    exist (the block splits, along an axis longer than one pixel step) are compressed."""
+    w, h = caster.width, caster.height
+    xs, ys = _grid_points(w, macro), _grid_points(h, macro)
     gx, gy = np.meshgrid(xs, ys)
-    cast = [caster.cast(g.index(gx.ravel(), gy.ravel()))]
+    caster.cast_jit(caster.index(gx, gy))
     x0, x1 = (xs[:-1], xs[1:]) if len(xs) > 1 else (xs, xs)
     y0, y1 = (ys[:-1], ys[1:]) if len(ys) > 1 else (ys, ys)
-    bx0, by0 = (a.ravel() for a in np.meshgrid(x0, y0))
-    bx1, by1 = (a.ravel() for a in np.meshgrid(x1, y1))
-    while len(bx0):
-        c = [g.ids[g.index(x, y)] for x, y in ((bx0, by0), (bx1, by0), (bx0, by1), (bx1, by1))]
-        differ = (c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])
-        sx, sy = (bx1 - bx0) > 1, (by1 - by0) > 1
-        keep = differ & (sx | sy)
-        bx0, bx1, by0, by1, sx, sy = (a[keep] for a in (bx0, bx1, by0, by1, sx, sy))
-        # Split each kept block in two along each axis longer than one pixel step.
-        bx0, bx1, by0, by1, sy = _halves(bx0, bx1, sx, by0, by1, sy)
-        by0, by1, bx0, bx1 = _halves(by0, by1, sy, bx0, bx1)
-        if len(bx0) == 0:
+    bx0, by0 = (mi.UInt32(a.ravel().astype(np.uint32)) for a in np.meshgrid(x0, y0))
+    bx1, by1 = (mi.UInt32(a.ravel().astype(np.uint32)) for a in np.meshgrid(x1, y1))
+    while dr.width(bx0):
+        bx0, bx1, by0, by1 = _split(caster, bx0, bx1, by0, by1)
+        if dr.width(bx0) == 0:
             break
-        pts_x = np.concatenate([bx0, bx1, bx0, bx1])
-        pts_y = np.concatenate([by0, by0, by1, by1])
-        cast.append(caster.cast(g.index(pts_x, pts_y)))
-    return np.concatenate(cast)
+        corner = dr.arange(mi.UInt32, 4 * dr.width(bx0))
+        blk = corner >> 2
+        px = dr.select(
+            (corner & 1) != 0, dr.gather(mi.UInt32, bx1, blk), dr.gather(mi.UInt32, bx0, blk)
+        )
+        py = dr.select(
+            (corner & 2) != 0, dr.gather(mi.UInt32, by1, blk), dr.gather(mi.UInt32, by0, blk)
+        )
+        caster.cast_jit(caster.index(px, py))
 
 
-def _halves(a0: np.ndarray, a1: np.ndarray, split: np.ndarray, *rest: np.ndarray):
-    """Intervals [a0, a1] cut at their midpoint where ``split``; ``rest`` arrays follow along."""
-    n = 1 + split.astype(np.int64)
-    rep = np.repeat(np.arange(len(a0)), n)
-    second = np.ones(len(rep), dtype=bool)
-    if len(rep):
-        second[np.r_[0, np.cumsum(n)[:-1]]] = False
-    mid = (a0 + a1) // 2
-    lo = np.where(second, mid[rep], a0[rep])
-    hi = np.where(split[rep] & ~second, mid[rep], a1[rep])
-    return (lo, hi, *(r[rep] for r in rest))
+def _split(caster: Caster, bx0: Any, bx1: Any, by0: Any, by1: Any) -> tuple[Any, Any, Any, Any]:
+    """The child blocks of one refinement level (evaluated): a block whose four corners differ
+    splits in two along each axis longer than one pixel step. Four lanes per block, one per
+    possible child; the ones that exist are compressed."""
+    U = mi.UInt32
+    lane = dr.arange(U, 4 * dr.width(bx0))
+    b, kx, ky = lane >> 2, (lane & 1) != 0, (lane & 2) != 0
+    X0, X1, Y0, Y1 = (dr.gather(U, a, b) for a in (bx0, bx1, by0, by1))
+    c = [
+        dr.gather(U, caster.ids, caster.index(x, y))
+        for x, y in ((X0, Y0), (X1, Y0), (X0, Y1), (X1, Y1))
+    ]
+    sx, sy = (X1 - X0) > 1, (Y1 - Y0) > 1
+    keep = ((c[0] != c[1]) | (c[0] != c[2]) | (c[0] != c[3])) & (sx | sy)
+    sel = dr.compress(keep & (~kx | sx) & (~ky | sy))
+    if dr.width(sel) == 0:
+        return U(), U(), U(), U()
+    b, kx, ky = sel >> 2, (sel & 1) != 0, (sel & 2) != 0
+    X0, X1, Y0, Y1 = (dr.gather(U, a, b) for a in (bx0, bx1, by0, by1))
+    mx, my = (X0 + X1) >> 1, (Y0 + Y1) >> 1
+    out = (
+        dr.select(kx, mx, X0),
+        dr.select(((X1 - X0) > 1) & ~kx, mx, X1),
+        dr.select(ky, my, Y0),
+        dr.select(((Y1 - Y0) > 1) & ~ky, my, Y1),
+    )
+    dr.eval(out)
+    return out
 
 
-def guard_pixels(caster: Caster, macro: int = MACRO) -> np.ndarray:
+def guard_pixels(caster: Caster, macro: int = MACRO) -> None:
     """Step 2: cast every pixel of the boxes of objects that can hide between corner rays."""
-    g = caster.grid
-    boxes = caster.guard_boxes()
+    boxes = caster.guard_boxes(macro)
     if boxes is None or len(boxes) == 0:
-        return np.zeros(0, np.int64)
-    lo = np.maximum(np.floor(boxes[:, :2]) - 1, 0)
-    hi = np.minimum(np.ceil(boxes[:, 2:]) + 1, [g.width - 1, g.height - 1])
-    small = ((hi - lo) <= 2 * macro).any(axis=1) & (hi >= lo).all(axis=1)
-    idx = [np.zeros(0, np.int64)]
-    for (x0, y0), (x1, y1) in zip(lo[small].astype(int), hi[small].astype(int), strict=True):
-        yy, xx = np.mgrid[y0 : y1 + 1, x0 : x1 + 1]
-        idx.append(g.index(xx.ravel(), yy.ravel()))
-    return caster.cast(np.concatenate(idx))
+        return
+    lo, hi, small, _ = pixel_rects(boxes, caster.width, caster.height, macro)
+    caster.cast_jit(caster.index(*rect_pixels(lo[small], hi[small])))
 
 
-def follow(caster: Caster, new: np.ndarray) -> None:
-    """Step 3: cast the pixels ahead of and behind every known crack until none is missing."""
-    g = caster.grid
-    assert g.known is not None
-    off = g.offsets4()
-    while len(new):
-        ids_new = g.ids[new]
-        pix, side = [], []
-        for d in range(4):
-            q = new + off[d]
-            ok = g.known[q] & (g.ids[q] != ids_new)
-            mine = ok & (ids_new != 0)
-            pix.append(new[mine])
-            side.append(np.full(int(mine.sum()), d))
-            idq = g.ids[q]
-            theirs = ok & (idq != 0) & (idq != OUTSIDE)
-            pix.append(q[theirs])
-            side.append(np.full(int(theirs.sum()), (d + 2) & 3))
-        p = np.concatenate(pix)
-        s = np.concatenate(side).astype(np.int64)
-        t = off[(s + 1) & 3]
-        ahead, behind = p + t, p - t
-        need = np.concatenate([ahead, ahead + off[s], behind, behind + off[s]])
-        new = caster.cast(need)
+def rect_pixels(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every pixel ``(x, y)`` of the inclusive rectangles ``lo``..``hi`` ((K, 2) each)."""
+    lo, hi = np.asarray(lo, np.int64).reshape(-1, 2), np.asarray(hi, np.int64).reshape(-1, 2)
+    bw, bh = (hi - lo + 1).T
+    n = bw * bh
+    box = np.repeat(np.arange(len(n)), n)
+    k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    return lo[box, 0] + k % bw[box], lo[box, 1] + k // bw[box]
+
+
+def follow(caster: Caster) -> None:
+    """Step 3: cast the pixels ahead of and behind every known crack until none is missing.
+    Each round looks at the pixels cast last (first: every pixel known), in Dr.Jit: 8 lanes per
+    pixel (4 sides, the crack on this pixel's side or on the neighbour's), the cracks that exist
+    are compressed, and each asks for its 4 pixels in one batch."""
+    new = caster.cast_so_far()
+    first = True
+    while dr.width(new):
+        # First round: every known pixel is in ``new``, so a neighbour's crack is its own.
+        need = _crack_needs(caster, new, both=not first)
+        first = False
+        new = caster.cast_jit(need) if need is not None else mi.UInt32()
         caster.stats.rounds += 1
+
+
+def _crack_needs(caster: Caster, new: mi.UInt32, both: bool = True) -> mi.UInt32 | None:
+    """The pixels ahead of and behind the cracks of pixels ``new`` (repeats, known ones
+    included); ``None`` when they have no crack. ``both``: also the cracks of their neighbours
+    on the sides facing them (else only the cracks on the pixels' own sides)."""
+    U = mi.UInt32
+    out = int(OUTSIDE)
+    offs = caster.offsets
+    shift = 3 if both else 2  # lanes per pixel: 4 sides (x 2 with the neighbours' cracks)
+    lane = dr.arange(U, dr.width(new) << shift)
+    p = dr.gather(U, new, lane >> shift)
+    d = (lane >> (shift - 2)) & 3
+    q = p + dr.gather(U, offs, d)
+    idp, idq = dr.gather(U, caster.ids, p), dr.gather(U, caster.ids, q)
+    ok = dr.gather(mi.Bool, caster.known, q) & (idq != idp)
+    theirs = ((lane & 1) != 0) if both else mi.Bool(False)  # q's crack, on its side d + 2
+    sel = dr.compress(ok & dr.select(theirs, (idq != 0) & (idq != out), idp != 0))
+    if dr.width(sel) == 0:
+        return None
+    k = dr.arange(U, 4 * dr.width(sel))  # 4 lanes per crack: ahead, ahead + side, behind, ...
+    c = dr.gather(U, sel, k >> 2)
+    theirs = ((c & 1) != 0) if both else mi.Bool(False)
+    d = (c >> (shift - 2)) & 3
+    p = dr.gather(U, new, c >> shift)
+    crack = dr.select(theirs, p + dr.gather(U, offs, d), p)
+    side = dr.select(theirs, (d + 2) & 3, d)
+    t = dr.gather(U, offs, (side + 1) & 3)
+    base = dr.select((k & 2) == 0, crack + t, crack - t)  # ahead, behind
+    return dr.select((k & 1) != 0, base + dr.gather(U, offs, side), base)
 
 
 def trace_scene(
@@ -337,24 +510,24 @@ def run(
     """Steps 1-4 of the module docstring with any :class:`Caster`; names for the contours."""
     stats = caster.stats
     t0 = time.perf_counter()
-    known = [refine(caster, macro)]
+    refine(caster, macro)
     t1 = time.perf_counter()
     stats.times["refine"] = t1 - t0
     if guard:
         before = stats.rays_cast
-        known.append(guard_pixels(caster, macro))
+        guard_pixels(caster, macro)
         stats.guarded_pixels = stats.rays_cast - before
     t2 = time.perf_counter()
     stats.times["guard"] = t2 - t1
-    follow(caster, np.concatenate(known))
+    follow(caster)
     t3 = time.perf_counter()
     stats.times["follow"] = t3 - t2
+    g = caster.grid  # the one read-back of the cache
     contours = contours_from_grid(
-        caster.grid, names, method, fetch=lambda need: caster.cast(np.asarray(need))
+        g, names, method, fetch=lambda need: caster.cast(np.asarray(need)), cracks=caster.cracks()
     )
     stats.times["trace"] = time.perf_counter() - t3
     stats.contours = len(contours)
-    g = caster.grid
     assert g.known is not None
     stats.cast = g.known.reshape(g.height + 2, g.stride)[1:-1, 1:-1].copy()
     return contours, stats
