@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -85,21 +87,105 @@ def face_components(F: np.ndarray, V: np.ndarray | None = None) -> np.ndarray:
 
     Faces sharing a vertex are connected; with ``V`` given, vertices are first welded by position
     (PLY files duplicate seam vertices: a sphere would fall apart into strips without it).
-    The components are scipy's (``connected_components`` of the graph of triangle edges).
+    One mesh of :func:`components`.
     """
     F = np.asarray(F, np.int64).reshape(-1, 3)
     if len(F) == 0:
         return np.zeros(0, np.int64)
-    if V is not None:
-        F = weld(V)[F]
-    n = int(F.max()) + 1
-    edges = np.concatenate([F[:, [0, 1]], F[:, [1, 2]]])
+    if V is None:  # no welding: every vertex index a position of its own
+        n = int(F.max()) + 1
+        V = np.repeat(np.arange(n, dtype=np.float64)[:, None], 3, axis=1)
+        V[:, 1] = np.arange(n) // (1 << 20)  # positions stay exact in float32 for any n
+        V[:, 0] = np.arange(n) % (1 << 20)
+    return components([(F, V)])[0].labels
+
+
+@dataclass(frozen=True)
+class Parts:
+    """The connected components of one mesh."""
+
+    labels: np.ndarray  # int64 per face: component, numbered by lowest face
+    boxes: np.ndarray  # (C, 2, 3) float64: [min, max] of each component's vertices
+
+    @property
+    def count(self) -> int:
+        return len(self.boxes)
+
+
+def weld_keys(V: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """Index of each vertex among the distinct ``(group, position)`` pairs ((n,) int64).
+
+    Positions compare by value like ``np.unique(V, axis=0)`` (``-0.0`` equals ``0.0``, a NaN
+    equals nothing): the float bits, with ``-0.0`` made ``+0.0``, are sorted as two 64-bit keys.
+    """
+    n = len(V)
+    if n == 0:
+        return np.zeros(0, np.int64)
+    bits = (np.asarray(V, np.float32) + np.float32(0.0)).view(np.uint32).astype(np.uint64)
+    k1 = (np.asarray(group, np.uint64) << np.uint64(32)) | bits[:, 0]
+    k2 = (bits[:, 1] << np.uint64(32)) | bits[:, 2]
+    nan = np.isnan(V).any(axis=1)
+    if nan.any():  # each NaN vertex stays on its own
+        k1[nan] |= np.uint64(1) << np.uint64(63)
+        k2[nan] = np.flatnonzero(nan).astype(np.uint64)
+    order = np.lexsort((k2, k1))
+    s1, s2 = k1[order], k2[order]
+    new = np.empty(n, dtype=bool)
+    new[0] = True
+    new[1:] = (s1[1:] != s1[:-1]) | (s2[1:] != s2[:-1])
+    inverse = np.empty(n, np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return inverse
+
+
+def components(meshes: Sequence[tuple[np.ndarray, np.ndarray]]) -> list[Parts]:
+    """:class:`Parts` of meshes given as ``(F, V)`` arrays, all in one graph (module docstring)."""
+    m = len(meshes)
+    if m == 0:
+        return []
+    nv = np.array([len(V) for _, V in meshes], np.int64)
+    nf = np.array([len(F) for F, _ in meshes], np.int64)
+    voff = np.concatenate([[0], np.cumsum(nv)[:-1]])
+    V = np.concatenate([np.asarray(V, np.float32).reshape(-1, 3) for _, V in meshes])
+    F = np.concatenate(
+        [np.asarray(F, np.int64).reshape(-1, 3) + o for (F, _), o in zip(meshes, voff, strict=True)]
+    )
+    mesh_of_face = np.repeat(np.arange(m), nf)
+    if len(F) == 0:
+        return [Parts(np.zeros(0, np.int64), np.zeros((0, 2, 3))) for _ in meshes]
+    W = weld_keys(V, np.repeat(np.arange(m), nv))[F]
+    n = int(W.max()) + 1
+    edges = np.concatenate([W[:, [0, 1]], W[:, [1, 2]]])
     graph = coo_matrix((np.ones(len(edges), np.int8), (edges[:, 0], edges[:, 1])), shape=(n, n))
     _, vertex_label = connected_components(graph, directed=False)
-    _, first, inverse = np.unique(vertex_label[F[:, 0]], return_index=True, return_inverse=True)
+    label = vertex_label[W[:, 0]]  # per face; no component spans two meshes
+    order = np.argsort(label, kind="stable")  # faces of one component, lowest first
+    sl = label[order]
+    start = np.flatnonzero(np.r_[True, sl[1:] != sl[:-1]])
+    first = order[start]  # lowest face of each component
+    group = np.empty(len(F), np.int64)
+    group[order] = np.cumsum(np.r_[True, sl[1:] != sl[:-1]]) - 1
+    # Number the components of each mesh by their lowest face (faces are in mesh order).
+    by_first = np.argsort(first, kind="stable")
+    comp_mesh = mesh_of_face[first[by_first]]
+    count = np.bincount(comp_mesh, minlength=m)
+    cstart = np.concatenate([[0], np.cumsum(count)[:-1]])
     rank = np.empty(len(first), np.int64)
-    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-    return rank[inverse.reshape(-1)]
+    rank[by_first] = np.arange(len(first)) - cstart[comp_mesh]
+    # Component boxes: each face's box, then the min / max over the component's faces.
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    lo = np.minimum.reduceat(np.minimum(np.minimum(a, b), c)[order], start)
+    hi = np.maximum.reduceat(np.maximum(np.maximum(a, b), c)[order], start)
+    boxes = np.stack([lo, hi], axis=1).astype(np.float64)[by_first]
+    face_rank = rank[group]
+    fstart = np.concatenate([[0], np.cumsum(nf)])
+    return [
+        Parts(
+            face_rank[fstart[i] : fstart[i + 1]],
+            boxes[cstart[i] : cstart[i] + count[i]],
+        )
+        for i in range(m)
+    ]
 
 
 def write_ply(
