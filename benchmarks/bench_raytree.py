@@ -1,7 +1,8 @@
 """npr_raytree (depth 3, all lights) against Mitsuba's C++ ``aov`` integrator, same scene, same run.
 
-Scene: ``scenes_xml/scene1.xml`` at 640x480 (glass, mirror and diffuse spheres; a point light
-and a constant environment, so every tree has two shadow rays per node). Cases:
+Scene: ``scenes_xml/scene1.xml`` at 640x480 and 1920x1080 (glass, mirror and diffuse spheres; a
+point light and a constant environment, both casting shadow rays (``shadow_lights="all"``), so
+every tree has two shadow rays per node). Cases:
 
 - ``npr_raytree``: ``mi.render`` with ``<integrator type="npr_raytree"/>`` (no nested beauty:
   headlight shading), i.e. the pixel-centre G-buffer pass, the ray trees at the W x H pixel
@@ -31,7 +32,7 @@ from _common import aov_anchor
 
 HERE = Path(__file__).resolve().parent
 SCENE = HERE.parent / "scenes_xml" / "scene1.xml"
-SIZE = (640, 480)
+SIZES = [(640, 480), (1920, 1080)]
 CASES = ["npr_raytree", "raytree_layers", "npr_gbuffer", "aov_box", "aov_gaussian"]
 ANCHORS = ["aov_box", "aov_gaussian"]
 
@@ -52,9 +53,10 @@ def _setup(case: str, w: int, h: int):
         return run
 
     if case == "raytree_layers":
-        return timed(lambda: mi_npr.raytree.raytree_layers(scene, 0, 3))
+        return timed(lambda: mi_npr.raytree.raytree_layers(scene, 0, 3, shadow_lights="all"))
     if case in ("npr_raytree", "npr_gbuffer"):
-        integ = mi.load_dict({"type": case, **({"max_depth": 3} if case == "npr_raytree" else {})})
+        tree = {"max_depth": 3, "shadow_lights": "all"} if case == "npr_raytree" else {}
+        integ = mi.load_dict({"type": case, **tree})
         return timed(lambda: mi.render(scene, integrator=integ))
     return aov_anchor(scene, w, h, box=case == "aov_box")
 
@@ -72,13 +74,8 @@ def measure_warm(fns: dict, repeat: int) -> dict[str, float]:
     return {case: statistics.median(t) for case, t in times.items()}
 
 
-def main() -> int:
-    args = _common.parse_args(__doc__, _setup, "5 repeats, no cold runs")
-    if args is None:
-        return 0
-
-    w, h = SIZE
-    repeat = 5 if args.quick else args.repeat
+def _measure(args, w: int, h: int, repeat: int) -> dict:
+    """Warm (and cold) times of every case at ``w`` x ``h``, and the ratios."""
     warm = measure_warm({case: _setup(case, w, h) for case in CASES}, repeat)
     res: dict = {"width": w, "height": h}
     for case in CASES:
@@ -100,14 +97,26 @@ def main() -> int:
             f"  ratio vs {anchor:<9}{res[f'ratio_warm_vs_{anchor}']:>10.2f}"
             f"{'' if cold is None else f'{cold:10.2f}'}"
         )
+    return res
+
+
+def main() -> int:
+    args = _common.parse_args(__doc__, _setup, "5 repeats, no cold runs")
+    if args is None:
+        return 0
+
+    repeat = 5 if args.quick else args.repeat
+    results = []
+    for w, h in SIZES:
+        results.append(_measure(args, w, h, repeat))
     path = _common.write_report(
         "bench_raytree",
         args.out,
         scene=str(SCENE.relative_to(_common.ROOT)),
         max_depth=3,
         repeat=repeat,
-        target="npr_raytree warm <= 3x aov",
-        results=[res],
+        target="npr_raytree warm <= 2x aov (box filter) at 1920x1080",
+        results=results,
     )
     print(f"\nwrote {path}")
     return 0

@@ -16,9 +16,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from plyfile import PlyData, PlyElement, PlyElementParseError, PlyListProperty, PlyParseError
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from .errors import InputError, check_input_file
 from .io._atomic import atomic_output
@@ -140,6 +137,9 @@ def weld_keys(V: np.ndarray, group: np.ndarray) -> np.ndarray:
 
 def components(meshes: Sequence[tuple[np.ndarray, np.ndarray]]) -> list[Parts]:
     """:class:`Parts` of meshes given as ``(F, V)`` arrays, all in one graph (module docstring)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     m = len(meshes)
     if m == 0:
         return []
@@ -199,6 +199,8 @@ def write_ply(
     ``vertex_attrs`` adds float per-vertex properties after ``x y z`` (``{"nx": (n,) array, ...}``;
     :func:`read_ply` returns them in its ``extra`` dict). ``F`` may have no rows (a point set).
     """
+    from plyfile import PlyData, PlyElement
+
     V = np.asarray(V, dtype="<f4")
     F = np.asarray(F, dtype="<u4")
     if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
@@ -233,6 +235,8 @@ def read_ply(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, dict
     """``(V, F, extra)``: positions, triangles and any other per-vertex properties by name
     (``nx ny nz`` normals, ...). Faces are the first list property of the ``face`` element;
     polygons are fanned into triangles."""
+    from plyfile import PlyData, PlyElementParseError, PlyListProperty, PlyParseError
+
     p = Path(path)
     check_input_file(p)
     with open(p, "rb") as f:

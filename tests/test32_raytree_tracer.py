@@ -46,6 +46,11 @@ MIXED = """
 PATH = '<integrator type="path"/>'
 
 
+def _numpy(layers):
+    """The ray-tree layers (Dr.Jit tensors) as numpy arrays, for the references."""
+    return {k: np.asarray(v) for k, v in layers.items()}
+
+
 # ----------------------------------------------------------------------------- reference
 def _visible_ref(mi, scene, si, ray_d, obj, lt, table) -> list[int]:
     import drjit as dr
@@ -219,7 +224,7 @@ def test03_simple_pixels_and_arguments(write_scene):
 # ----------------------------------------------------------------------------- the hash
 def _hash_layers(path):
     scene = mi_npr.load_scene(path)
-    lay = raytree_layers(scene, 0, 3, shadow_lights="all")
+    lay = _numpy(raytree_layers(scene, 0, 3, shadow_lights="all"))
     return (lay[L.RAYTREE_HI].astype(np.uint64) << np.uint64(32)) | lay[L.RAYTREE_LO]
 
 

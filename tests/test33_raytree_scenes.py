@@ -16,6 +16,11 @@ from mi_npr.raytree import raytree_layers
 LAMP_AT_EYE = '<emitter type="point" id="lamp"><point name="position" x="0" y="0" z="0"/></emitter>'
 
 
+def _numpy(layers):
+    """The ray-tree layers (Dr.Jit tensors) as numpy arrays, for the references."""
+    return {k: np.asarray(v) for k, v in layers.items()}
+
+
 def corner_rays(scene):
     mi = mi_npr.mi
     sensor = scene.sensors()[0]
@@ -60,7 +65,7 @@ def all_corners_are(ids: np.ndarray, oid: int) -> np.ndarray:
 
 def layers_of(write_scene, body, name="scene.xml", **kw):
     scene = mi_npr.load_scene(write_scene(body, name=name, **kw))
-    return scene, raytree_layers(scene, 0, 3)
+    return scene, _numpy(raytree_layers(scene, 0, 3))
 
 
 # ----------------------------------------------------------------------------- diffuse
@@ -216,7 +221,7 @@ def test06_scene1_and_scene2_have_the_same_real_edges(scenes):
     out = {}
     for name in ("scene1", "scene2"):
         scene = mi_npr.load_scene(scenes / f"{name}.xml", width=64, height=48, spp=1)
-        out[name] = raytree_layers(scene, 0, 3)
+        out[name] = _numpy(raytree_layers(scene, 0, 3))
     np.testing.assert_array_equal(out["scene1"][L.EDGES_REAL], out["scene2"][L.EDGES_REAL])
     assert out["scene1"][L.EDGES_REAL].sum() > 50
     # scene 1's glass and mirror make reflection and refraction edges; scene 2 has none
@@ -230,6 +235,6 @@ def test06_scene1_and_scene2_have_the_same_real_edges(scenes):
 def test07_the_mirror_glass_scene_shows_every_class(scenes):
     scene = mi_npr.load_scene(scenes / "raytree_mirror_glass.xml", width=80, height=60, spp=1)
     assert scene.integrator().aov_names()[:2] == [L.RAYTREE_HI, L.RAYTREE_LO]
-    lay = raytree_layers(scene, 0, 3)
+    lay = _numpy(raytree_layers(scene, 0, 3))
     for name in L.EDGES:
         assert lay[name].sum() > 5, name

@@ -21,6 +21,11 @@ SCENE = (
 )
 
 
+def _numpy(layers):
+    """The ray-tree layers (Dr.Jit tensors) as numpy arrays, for the references."""
+    return {k: np.asarray(v) for k, v in layers.items()}
+
+
 def raytree_integrator(depth=None, nested='<integrator type="direct"/>'):
     d = "" if depth is None else f'<integer name="max_depth" value="{depth}"/>'
     return f'<integrator type="npr_raytree">{d}{nested}</integrator>'
@@ -94,7 +99,7 @@ def test05_raytree_render_on_any_scene(write_scene):
     gb = mi_npr.raytree.render(plain, spp=2)
     assert gb.metadata["mi_npr/beauty"] == "PathIntegrator"
     scene = mi_npr.load_scene(plain)
-    lay = raytree_layers(scene, 0, 3)
+    lay = _numpy(raytree_layers(scene, 0, 3))
     for name in LAYERS:
         np.testing.assert_array_equal(gb.numpy(name), lay[name], err_msg=name)
     headlight = mi_npr.raytree.render(write_scene(SCENE, name="gbuf.xml"))  # npr_gbuffer, no beauty

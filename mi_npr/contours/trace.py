@@ -67,8 +67,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components, depth_first_order
 
 from ..errors import ParameterError
 from ..gbuffer import GBuffer, to_numpy
@@ -223,6 +221,9 @@ def _cycle_min(val: np.ndarray, succ: np.ndarray) -> np.ndarray:
     """The minimum of ``val`` over each cycle of the permutation ``succ``: the cycles are the
     connected components of the graph ``i -> succ[i]`` (scipy, linear time)."""
     n = len(succ)
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
     graph = csr_matrix((np.ones(n, np.int8), succ, np.arange(n + 1)), shape=(n, n))
     count, label = connected_components(graph, directed=True, connection="weak")
     low = np.full(count, np.iinfo(np.int64).max)
@@ -239,6 +240,9 @@ def _cycle_order(succ: np.ndarray, is_rep: np.ndarray, reps: np.ndarray) -> np.n
     keep = ~is_rep[succ]
     indptr = np.concatenate([[0], np.cumsum(keep), [keep.sum() + len(reps)]])
     cols = np.concatenate([succ[keep], reps])  # one edge per row, then the root's (ascending)
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import depth_first_order
+
     graph = csr_matrix((np.ones(len(cols), np.int8), cols, indptr), shape=(n + 1, n + 1))
     return depth_first_order(graph, n, directed=True, return_predecessors=False)[1:]
 

@@ -64,7 +64,6 @@ from typing import Any
 import drjit as dr
 import mitsuba as mi
 import numpy as np
-from scipy.cluster.vq import kmeans2, vq
 
 from ..errors import InputError, ParameterError, check_input_file
 from ..io._atomic import atomic_output
@@ -407,6 +406,8 @@ def kmeans(
     """k-means with k-means++ seeding (scipy's ``kmeans2``): ``(centres (k', 3), labels (n,))``,
     each point labelled with its nearest centre; empty clusters are dropped, so ``k' <= k``
     (``k`` is also capped at the number of distinct points). Deterministic for a given ``seed``."""
+    from scipy.cluster.vq import kmeans2, vq  # lazy: scipy costs ~0.1 s to import
+
     X = np.asarray(X, np.float64)
     k = max(1, min(int(k), len(np.unique(X, axis=0))))
     with warnings.catch_warnings():  # an emptied cluster keeps its centre; dropped below

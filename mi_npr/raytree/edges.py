@@ -32,7 +32,6 @@ from typing import Any
 
 import drjit as dr
 import mitsuba as mi
-import numpy as np
 
 from .. import layers as L
 from ..errors import ParameterError
@@ -95,6 +94,8 @@ def any_corner(flags: Any, width: int, height: int) -> Any:
     return out
 
 
-def as_image(values: Any, width: int, height: int) -> np.ndarray:
-    """A flat Dr.Jit array of ``width * height`` values as an (H, W) numpy array (a view)."""
-    return np.asarray(values.numpy()).reshape(height, width)
+def as_image(values: Any, width: int, height: int) -> Any:
+    """A flat Dr.Jit array of ``width * height`` values as an (H, W) tensor (``TensorXu`` for
+    integers, ``TensorXf`` otherwise; no copy, no host round trip)."""
+    tensor = mi.TensorXu if dr.type_v(values) == dr.VarType.UInt32 else mi.TensorXf
+    return tensor(values, shape=(height, width))

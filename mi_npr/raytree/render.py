@@ -83,9 +83,9 @@ def raytree_layers(
     max_depth: int = 3,
     ids: Any = None,
     shadow_lights: str = HARD,
-) -> dict[str, np.ndarray]:
+) -> dict[str, Any]:
     """``raytree.hi``, ``raytree.lo`` (uint32) and the four ``edges.*`` layers (float32 0/1)
-    of ``sensor``'s image, each an (H, W) numpy array.
+    of ``sensor``'s image, each an (H, W) Dr.Jit tensor.
 
     ``ids`` (an :class:`~mi_npr.contours.idmode.IdMap` of a mode in
     :data:`~mi_npr.contours.idmode.OBJECT_MODES`) chooses what one object is for
