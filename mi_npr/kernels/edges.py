@@ -143,24 +143,30 @@ def angle(v: Any) -> str | None:
     return None if ok else "must lie in [0, 180) degrees"
 
 
+def _length(n: list[Any]) -> Any:
+    return dr.sqrt(dr.fma(n[0], n[0], dr.fma(n[1], n[1], n[2] * n[2])))
+
+
+def _bent(n0: list[Any], n1: list[Any], id0: Any, id1: Any, cos_a: Any) -> Bool:
+    """Two 4-neighbours on one object whose normals turn by more than ``acos(cos_a)``: tested
+    as ``dot(n0, n1) < cos_a |n0| |n1|`` (false for zero or non-finite normals). Equal normals
+    never bend, whatever rounding does to the dot product and the lengths (an angle of 0, and the
+    border pixel compared with itself)."""
+    dot = dr.fma(n0[0], n1[0], dr.fma(n0[1], n1[1], n0[2] * n1[2]))
+    differ = (n1[0] != n0[0]) | (n1[1] != n0[1]) | (n1[2] != n0[2])
+    return (id1 == id0) & differ & (dot < cos_a * _length(n0) * _length(n1))
+
+
 def normal_edge(N: list[Field], ids: Field, angle_deg: float) -> Bool:
     """Pixels whose normal turns by more than ``angle_deg`` towards a 4-neighbour on the same
     object (lazy). ``angle > a`` is tested as ``dot(n0, n1) < cos(a) |n0| |n1|``, false for
     zero or non-finite normals."""
     # cos(radians(90)) is 6e-17, not 0: rounded, a right angle is not "more than 90 degrees".
     cos_a = opaque(round(math.cos(math.radians(angle_deg)), 12))
-    n0 = [f.at() for f in N]
-    len0 = dr.sqrt(dr.fma(n0[0], n0[0], dr.fma(n0[1], n0[1], n0[2] * n0[2])))
-    id0 = ids.at()
+    n0, id0 = [f.at() for f in N], ids.at()
     edge = None
     for dy, dx in CROSS:
-        n1 = [f.at(dy, dx) for f in N]
-        len1 = dr.sqrt(dr.fma(n1[0], n1[0], dr.fma(n1[1], n1[1], n1[2] * n1[2])))
-        dot = dr.fma(n0[0], n1[0], dr.fma(n0[1], n1[1], n0[2] * n1[2]))
-        # Equal normals never bend, whatever rounding does to dot and lengths (angle_deg = 0,
-        # and the border pixel compared with itself).
-        differ = (n1[0] != n0[0]) | (n1[1] != n0[1]) | (n1[2] != n0[2])
-        bent = (ids.at(dy, dx) == id0) & differ & (dot < cos_a * len0 * len1)
+        bent = _bent(n0, [f.at(dy, dx) for f in N], id0, ids.at(dy, dx), cos_a)
         edge = bent if edge is None else edge | bent
     return edge & (id0 != 0)
 
@@ -193,7 +199,7 @@ def dihedral(v: Any) -> str | None:
 
 
 def _unit(n: list[Any]) -> list[Any]:
-    length = dr.sqrt(dr.fma(n[0], n[0], dr.fma(n[1], n[1], n[2] * n[2])))
+    length = _length(n)
     return [c / length for c in n]
 
 
@@ -212,15 +218,11 @@ def crease_edge(
     n0 = [f.at() for f in N]
     u0 = _unit(n0)
     facing0 = -(u0[0] * view[0] + u0[1] * view[1] + u0[2] * view[2])
-    len0 = dr.sqrt(dr.fma(n0[0], n0[0], dr.fma(n0[1], n0[1], n0[2] * n0[2])))
     id0, z0 = ids.at(), depth.at()
     edge = None
     for dy, dx in CROSS:
         n1 = [f.at(dy, dx) for f in N]
-        len1 = dr.sqrt(dr.fma(n1[0], n1[0], dr.fma(n1[1], n1[1], n1[2] * n1[2])))
-        dot = dr.fma(n0[0], n1[0], dr.fma(n0[1], n1[1], n0[2] * n1[2]))
-        differ = (n1[0] != n0[0]) | (n1[1] != n0[1]) | (n1[2] != n0[2])
-        bent = (ids.at(dy, dx) == id0) & differ & (dot < cos_a * len0 * len1)
+        bent = _bent(n0, n1, id0, ids.at(dy, dx), cos_a)
         u1 = _unit(n1)
         facing1 = -(u1[0] * view[0] + u1[1] * view[1] + u1[2] * view[2])
         lexi = (u0[0] > u1[0]) | (
