@@ -437,13 +437,22 @@ def run(
 
 
 def _run_here(settings: BatchSettings, jobs: Sequence[Job], retries: int, record: Callable) -> None:
-    """The batch in this process, job after job (``workers=0``)."""
-    for job in jobs:
-        for attempt in range(1, retries + 2):
-            row = render_job(settings, job, attempt)
-            if row["status"] == "done":
-                break
-        record(row)
+    """The batch in this process, job after job (``workers=0``); a thread cap holds for the
+    batch only."""
+    import drjit as dr
+
+    before = dr.thread_count()
+    try:
+        for job in jobs:
+            for attempt in range(1, retries + 2):
+                row = render_job(settings, job, attempt)
+                if row["status"] == "done":
+                    break
+            record(row)
+    finally:
+        if settings.threads:
+            dr.set_thread_count(before)
+            _THREADS[0] = None
 
 
 def _local_cluster(workers: int | None, jobs: int, settings: BatchSettings) -> tuple[Any, Any]:
