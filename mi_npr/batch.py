@@ -275,7 +275,7 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
             row["outputs"] = [os.path.relpath(p, settings.outdir) for p in written]
             row["status"] = "done"
         except NprError as e:
-            row["error"] = one_line(e) if job.scene in str(e) else f"{job.id}: {one_line(e)}"
+            row["error"] = f"{job.id}: {one_line(e)}"
         except Exception as e:
             row["error"] = f"{job.id}: internal error: {type(e).__name__}: {one_line(e)}"
     row["seconds"] = round(time.perf_counter() - t0, 6)
@@ -495,7 +495,8 @@ def _run_dask(
         if client is None:
             if scheduler is not None:
                 try:
-                    client = own_client = Client(scheduler, timeout="20s")
+                    # Dask's connect timeout (30 s; $DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT)
+                    client = own_client = Client(scheduler)
                 except (OSError, TimeoutError) as e:
                     raise ParameterError(
                         f"--scheduler {scheduler}: cannot connect ({one_line(e)})"

@@ -37,7 +37,7 @@ def _start(args: list[str], log: Path) -> subprocess.Popen:
     return subprocess.Popen(
         [sys.executable, "-m", *args],
         stdout=subprocess.DEVNULL,
-        stderr=open(log, "wb"),  # noqa: SIM115 - closed with the process
+        stderr=open(log, "wb"),
         cwd=ROOT,
         start_new_session=True,
     )
