@@ -455,24 +455,28 @@ def _run_here(settings: BatchSettings, jobs: Sequence[Job], retries: int, record
             _THREADS[0] = None
 
 
-def _local_cluster(workers: int | None, jobs: int, settings: BatchSettings) -> tuple[Any, Any]:
-    """A ``LocalCluster`` of ``workers`` single-threaded processes (default: one per core, at
-    most one per job) and the Dr.Jit threads each should use (the cores shared out)."""
+def local_cluster(workers: int, **kwargs: Any) -> Any:
+    """A ``LocalCluster`` of ``workers`` single-threaded processes for batches (a worker runs
+    one job at a time; Dr.Jit's own threads do the parallel work). Its scheduler sends every
+    task to the workers at once (``worker-saturation`` inf): a worker never waits for its next
+    job, and work stealing still balances them. Close it (or use it in ``with``)."""
     import logging
 
+    import dask
     from distributed import LocalCluster
 
+    options = dict(threads_per_worker=1, processes=True, dashboard_address=":0")
+    options.update(silence_logs=logging.ERROR, **kwargs)
+    with dask.config.set({"distributed.scheduler.worker-saturation": float("inf")}):
+        return LocalCluster(n_workers=workers, **options)
+
+
+def _default_workers(workers: int | None, jobs: int, threads: int | None) -> tuple[int, int]:
+    """Workers of a LocalCluster (default: one per core, at most one per job) and the Dr.Jit
+    threads each uses (default: the cores shared out)."""
     cores = os.cpu_count() or 1
     n = workers or max(1, min(cores, jobs))
-    threads = settings.threads or max(1, cores // n)
-    cluster = LocalCluster(
-        n_workers=n,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",
-        silence_logs=logging.ERROR,
-    )
-    return cluster, threads
+    return n, threads or max(1, cores // n)
 
 
 def _run_dask(
@@ -502,7 +506,8 @@ def _run_dask(
                         f"--scheduler {scheduler}: cannot connect ({one_line(e)})"
                     ) from None
             else:
-                own_cluster, threads = _local_cluster(workers, len(jobs), settings)
+                n, threads = _default_workers(workers, len(jobs), settings.threads)
+                own_cluster = local_cluster(n)
                 settings = replace(settings, threads=threads)
                 client = own_client = Client(own_cluster)
         tag = f"{os.getpid()}-{time.time_ns()}"
