@@ -33,7 +33,7 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import contours, cryptomatte, data, foliage, io, kernels, pipeline, raytree, viewpoint  # noqa: E402
+from . import batch, contours, cryptomatte, data, foliage, io, kernels, pipeline, raytree, viewpoint  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -47,6 +47,7 @@ __all__ = [
     "OutputError",
     "ParameterError",
     "SceneError",
+    "batch",
     "camera_of",
     "contours",
     "cryptomatte",

@@ -1,11 +1,34 @@
-"""Running one job per input (scene, EXR) with a progress bar, where one failure does not stop the
-others: what the CLI's multi-scene commands share. Errors become one-line messages."""
+"""Batches: one job per input with a progress bar, where one failure does not stop the others.
+
+- :func:`run_jobs`: the in-process loop of ``mi-npr render`` (one job per scene).
+- :func:`run`: ``mi-npr batch``, scenes x viewpoints (:mod:`mi_npr.views`) on Dask distributed:
+  a ``LocalCluster`` started here (``workers``; ``workers=0`` renders in this process), a running
+  cluster (``scheduler="tcp://host:port"``) or a ``distributed.Client`` of the caller.
+
+One job = one scene x one view, written to ``OUT/<scene stem>/<view id>.exr`` (+ the PNG/SVG
+files ``mi-npr render`` writes, :func:`mi_npr.io.write_layered_outputs`) by the worker, all
+together or none (atomic output sets). The worker returns the job's manifest row; only this
+process (the client) appends rows to ``OUT/manifest.jsonl`` (:mod:`mi_npr.io.manifest`), one
+line per finished or failed job, so a kill at any moment leaves whole lines and whole output
+sets. ``resume`` skips the jobs whose last row says ``done`` with the same scene hash and
+flags and whose outputs all exist; every other job runs again.
+
+Workers keep the scenes they loaded (an LRU of :data:`SCENE_CACHE` scenes keyed by path, content
+hash and load settings) with their cameras, so a worker loads each scene once and its compiled
+kernels serve every view; jobs are submitted scene by scene. ``threads_per_worker`` caps each
+worker's Dr.Jit threads (``dr.set_thread_count``); a worker process runs one job at a time.
+A job that raises, or whose worker dies (Dask's ``KilledWorker``), is retried ``retries``
+times, then recorded as ``failed`` with a one-line error while the others go on.
+"""
 
 from __future__ import annotations
 
+import os
 import sys
+import threading
 import time
-from collections.abc import Callable, Sequence
+from collections import OrderedDict
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -93,3 +116,443 @@ def run_jobs(
     if bar is not None:
         bar.close()
     return results
+
+
+# -- scenes x views on Dask ----------------------------------------------------------------
+
+#: Scenes a worker keeps loaded (least recently used goes first).
+SCENE_CACHE = 4
+
+
+@dataclass(frozen=True)
+class Job:
+    """One scene x one view: ``id`` is ``<scene stem>/<view id>``."""
+
+    scene: str
+    scene_hash: str
+    view: str
+
+    @property
+    def stem(self) -> str:
+        return Path(self.scene).stem
+
+    @property
+    def id(self) -> str:
+        return f"{self.stem}/{self.view}"
+
+
+@dataclass(frozen=True)
+class BatchSettings:
+    """What every job of a batch shares (sent to the workers)."""
+
+    outdir: str
+    views: Any  # a mi_npr.views.ViewSpec
+    drawings: tuple[str, ...] = ()
+    params: tuple[tuple[str, Any], ...] = ()
+    width: int | None = None
+    height: int | None = None
+    spp: int | None = None
+    seed: int = 0
+    defines: tuple[tuple[str, Any], ...] = ()
+    variant: str | None = None
+    threads: int | None = None
+    line_color: tuple[float, ...] | None = None
+    paper: tuple[float, ...] | None = None
+
+    def flags(self) -> dict[str, Any]:
+        """What makes two renders of a job equal (compared by ``resume``), JSON-ready."""
+        return {
+            "views": self.views.text,
+            "drawings": list(self.drawings),
+            "params": {k: list(v) if isinstance(v, tuple) else v for k, v in self.params},
+            "width": self.width,
+            "height": self.height,
+            "spp": self.spp,
+            "seed": self.seed,
+            "defines": {k: str(v) for k, v in self.defines},
+            "variant": self.variant,
+            "line_color": list(self.line_color) if self.line_color else None,
+            "paper": list(self.paper) if self.paper else None,
+        }
+
+
+_JOB_LOCK = threading.Lock()  # one job at a time per process (output sets, the render lock)
+_SCENES: OrderedDict[tuple, tuple[Any, dict[str, Any]]] = OrderedDict()
+_THREADS: list[int | None] = [None]
+
+
+def _worker_name() -> str:
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().address)
+    except (ImportError, ValueError):
+        import socket
+
+        return f"local:{socket.gethostname()}:{os.getpid()}"
+
+
+def _configure(settings: BatchSettings) -> None:
+    """This process's variant and Dr.Jit thread cap (once; again only if they change)."""
+    import mitsuba as mi
+
+    import mi_npr
+
+    if settings.variant and mi.variant() != settings.variant:
+        mi_npr.set_variant(settings.variant)
+    if settings.threads and _THREADS[0] != settings.threads:
+        import drjit as dr
+
+        dr.set_thread_count(settings.threads)
+        _THREADS[0] = settings.threads
+
+
+def _scene(settings: BatchSettings, job: Job) -> tuple[Any, dict[str, Any]]:
+    """The loaded scene of ``job`` and its cameras by view id, from this worker's cache."""
+    from .session import SceneSession
+    from .views import cameras
+
+    size = (
+        None
+        if settings.width is None and settings.height is None
+        else (settings.width, settings.height)
+    )
+    key = (job.scene, job.scene_hash, settings.defines, size, settings.spp, settings.views)
+    if key in _SCENES:
+        _SCENES.move_to_end(key)
+        return _SCENES[key]
+    session = SceneSession.open(
+        job.scene, spp=settings.spp, defines=dict(settings.defines), resolution=size
+    )
+    with session.step("placing the cameras"):
+        cams = dict(cameras(settings.views, session.scene, session.sensor))
+    _SCENES[key] = (session, cams)
+    while len(_SCENES) > SCENE_CACHE:
+        _SCENES.popitem(last=False)
+    return session, cams
+
+
+def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str, Any]:
+    """Render and write one job; its manifest row (``status`` ``done`` or ``failed`` with a
+    one-line ``error``). Runs on a worker; never raises for a failing job."""
+    from . import io
+    from .pipeline import render_layers
+    from .views import sensor_camera, sensor_for
+
+    t0 = time.perf_counter()
+    row: dict[str, Any] = {
+        "job": job.id,
+        "scene": job.scene,
+        "scene_hash": job.scene_hash,
+        "view": job.view,
+        "camera": None,
+        "flags": settings.flags(),
+        "outputs": [],
+        "status": "failed",
+        "error": None,
+        "attempt": attempt,
+        "worker": _worker_name(),
+    }
+    with _JOB_LOCK:
+        try:
+            _configure(settings)
+            session, cams = _scene(settings, job)
+            camera = cams[job.view]
+            sensor = session.sensor if camera is None else sensor_for(camera, session.sensor)
+            row["camera"] = (camera or sensor_camera(session.sensor)).to_dict()
+            result = render_layers(
+                session.scene,
+                settings.drawings,
+                dict(settings.params),
+                sensor=sensor,
+                spp=session.spp,
+                seed=settings.seed,
+            )
+            outdir = Path(settings.outdir) / job.stem
+            written = io.write_layered_outputs(
+                result, outdir, job.view, line_color=settings.line_color, paper=settings.paper
+            )
+            row["outputs"] = [os.path.relpath(p, settings.outdir) for p in written]
+            row["status"] = "done"
+        except NprError as e:
+            row["error"] = f"{job.id}: {one_line(e)}"
+        except Exception as e:
+            row["error"] = f"{job.id}: internal error: {type(e).__name__}: {one_line(e)}"
+    row["seconds"] = round(time.perf_counter() - t0, 6)
+    row["finished"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    return row
+
+
+def _done(row: Mapping[str, Any], job: Job, flags: Mapping[str, Any], outdir: Path) -> bool:
+    """Whether a manifest row shows ``job`` done with these flags, its outputs still there."""
+    return (
+        row.get("status") == "done"
+        and row.get("scene_hash") == job.scene_hash
+        and row.get("flags") == flags
+        and bool(row.get("outputs"))
+        and all((outdir / p).is_file() for p in row["outputs"])
+    )
+
+
+def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
+    """The drawing parameters, each checked by the drawings that take it."""
+    from .params import coerce
+    from .pipeline import LAYERS, layer_params
+
+    for d in drawings:
+        if d not in LAYERS:
+            raise ParameterError(f"drawing {d!r}: expected one of {', '.join(LAYERS)}")
+    out = {}
+    for name, value in params.items():
+        takers = [(d, p) for d in drawings for p in layer_params(d) if p.name == name]
+        if not takers:
+            raise ParameterError(f"parameter {name!r}: no drawing of this batch takes it")
+        for d, p in takers:
+            out[name] = coerce(LAYERS[d], p, value)
+    return tuple(sorted(out.items()))
+
+
+def plan(scenes: Sequence[str | os.PathLike[str]], views: Any) -> tuple[list[Job], Any]:
+    """The jobs of ``scenes`` x ``views`` (scene by scene) and the parsed view spec."""
+    from .errors import SceneError, check_input_file
+    from .io.manifest import scene_hash
+    from .views import ViewSpec, parse_views
+
+    spec = views if isinstance(views, ViewSpec) else parse_views(views)
+    if isinstance(scenes, (str, os.PathLike)):
+        scenes = [scenes]
+    if not scenes:
+        raise ParameterError("scenes: give at least one scene")
+    paths = [str(check_input_file(s, SceneError).resolve()) for s in scenes]
+    check_unique_stems(paths)
+    jobs = []
+    for p in dict.fromkeys(paths):
+        h = scene_hash(p)
+        jobs.extend(Job(p, h, v) for v in spec.ids())
+    return jobs, spec
+
+
+def run(
+    scenes: Sequence[str | os.PathLike[str]] | str | os.PathLike[str],
+    views: Any = "scene",
+    client: Any = None,
+    *,
+    out: str | os.PathLike[str],
+    drawings: Sequence[str] = (),
+    params: Mapping[str, Any] | None = None,
+    width: int | None = None,
+    height: int | None = None,
+    spp: int | None = None,
+    seed: int = 0,
+    defines: Mapping[str, Any] | None = None,
+    workers: int | None = None,
+    threads_per_worker: int | None = None,
+    scheduler: str | None = None,
+    resume: bool = False,
+    retries: int = 0,
+    progress: bool = True,
+    line_color: Sequence[float] | None = None,
+    paper: Sequence[float] | None = None,
+) -> list[dict[str, Any]]:
+    """Render every scene of ``scenes`` from every view of ``views`` (module docstring) into
+    ``out``; the manifest rows of all jobs, in job order (a job skipped by ``resume``: its
+    earlier row).
+
+    ``client``: a ``distributed.Client`` to run on; else ``scheduler`` (an address) to connect
+    to; else a ``LocalCluster`` of ``workers`` processes (default: one per core, at most one per
+    job) started and closed here; ``workers=0`` renders in this process, without Dask.
+
+    >>> rows = mi_npr.batch.run(["scenes_xml/scene1.xml"], "orbit:4", out="out",
+    ...                         drawings=["lines"], width=160, height=120, spp=4)  # doctest: +SKIP
+    >>> [r["status"] for r in rows]                                               # doctest: +SKIP
+    """
+    import mitsuba as mi
+
+    from .io import check_writable_dir
+    from .io.manifest import MANIFEST, append_row, read_rows
+    from .params import CLI_PARAMS, check_arg
+
+    table = {p.name: p for p in CLI_PARAMS["batch"]}
+
+    def arg(flag: str, value: Any) -> Any:
+        return None if value is None else check_arg(f"batch {flag}", table[flag], value)
+
+    width, height, spp = arg("--width", width), arg("--height", height), arg("--spp", spp)
+    seed, workers = arg("--seed", seed), arg("--workers", workers)
+    threads_per_worker, retries = (
+        arg("--threads-per-worker", threads_per_worker),
+        arg("--retries", retries),
+    )
+    jobs, spec = plan(scenes, views)
+    outdir = check_writable_dir(out, create=True)
+    settings = BatchSettings(
+        outdir=str(outdir.resolve()),
+        views=spec,
+        drawings=tuple(dict.fromkeys(drawings)),
+        params=_check_params(drawings, dict(params or {})),
+        width=width,
+        height=height,
+        spp=spp,
+        seed=seed,
+        defines=tuple(sorted((k, str(v)) for k, v in (defines or {}).items())),
+        variant=mi.variant(),
+        threads=threads_per_worker,
+        line_color=tuple(float(v) for v in line_color) if line_color else None,
+        paper=tuple(float(v) for v in paper) if paper else None,
+    )
+    manifest = outdir / MANIFEST
+    flags = settings.flags()
+    rows: dict[str, dict[str, Any]] = {}
+    if resume:
+        last = {r.get("job"): r for r in read_rows(manifest)}
+        for job in jobs:
+            r = last.get(job.id)
+            if r is not None and _done(r, job, flags, outdir):
+                rows[job.id] = r
+    pending = [j for j in jobs if j.id not in rows]
+    bar: Any = None
+    if progress and pending:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(jobs), initial=len(rows), desc="batch", unit="job")
+
+    def record(row: dict[str, Any]) -> None:
+        append_row(manifest, row)
+        rows[row["job"]] = row
+        if bar is not None:
+            if row["status"] != "done":
+                bar.write(f"mi-npr: error: {row['error']}", file=sys.stderr)
+            bar.update(1)
+
+    try:
+        if pending:
+            if client is None and scheduler is None and workers == 0:
+                _run_here(settings, pending, retries, record)
+            else:
+                _run_dask(settings, pending, retries, record, client, scheduler, workers)
+    finally:
+        if bar is not None:
+            bar.close()
+    return [rows[j.id] for j in jobs if j.id in rows]
+
+
+def _run_here(settings: BatchSettings, jobs: Sequence[Job], retries: int, record: Callable) -> None:
+    """The batch in this process, job after job (``workers=0``); a thread cap holds for the
+    batch only."""
+    import drjit as dr
+
+    before = dr.thread_count()
+    try:
+        for job in jobs:
+            for attempt in range(1, retries + 2):
+                row = render_job(settings, job, attempt)
+                if row["status"] == "done":
+                    break
+            record(row)
+    finally:
+        if settings.threads:
+            dr.set_thread_count(before)
+            _THREADS[0] = None
+
+
+def local_cluster(workers: int, **kwargs: Any) -> Any:
+    """A ``LocalCluster`` of ``workers`` single-threaded processes for batches (a worker runs
+    one job at a time; Dr.Jit's own threads do the parallel work). Its scheduler sends every
+    task to the workers at once (``worker-saturation`` inf): a worker never waits for its next
+    job, and work stealing still balances them. Close it (or use it in ``with``)."""
+    import logging
+
+    import dask
+    from distributed import LocalCluster
+
+    options = dict(threads_per_worker=1, processes=True, dashboard_address=":0")
+    options.update(silence_logs=logging.ERROR, **kwargs)
+    with dask.config.set({"distributed.scheduler.worker-saturation": float("inf")}):
+        return LocalCluster(n_workers=workers, **options)
+
+
+def _default_workers(workers: int | None, jobs: int, threads: int | None) -> tuple[int, int]:
+    """Workers of a LocalCluster (default: one per core, at most one per job) and the Dr.Jit
+    threads each uses (default: the cores shared out)."""
+    cores = os.cpu_count() or 1
+    n = workers or max(1, min(cores, jobs))
+    return n, threads or max(1, cores // n)
+
+
+def _run_dask(
+    settings: BatchSettings,
+    jobs: Sequence[Job],
+    retries: int,
+    record: Callable,
+    client: Any,
+    scheduler: str | None,
+    workers: int | None,
+) -> None:
+    """The batch on Dask: one task per job, submitted scene by scene; a failed task (or one
+    whose worker died) is submitted again while it has retries left."""
+    from dataclasses import replace
+
+    from distributed import Client, as_completed
+
+    own_cluster = own_client = None
+    try:
+        if client is None:
+            if scheduler is not None:
+                try:
+                    # Dask's connect timeout (30 s; $DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT)
+                    client = own_client = Client(scheduler)
+                except (OSError, TimeoutError) as e:
+                    raise ParameterError(
+                        f"--scheduler {scheduler}: cannot connect ({one_line(e)})"
+                    ) from None
+            else:
+                n, threads = _default_workers(workers, len(jobs), settings.threads)
+                own_cluster = local_cluster(n)
+                settings = replace(settings, threads=threads)
+                client = own_client = Client(own_cluster)
+        tag = f"{os.getpid()}-{time.time_ns()}"
+        attempts: dict[Any, tuple[Job, int]] = {}
+
+        def submit(job: Job, attempt: int, priority: int) -> Any:
+            fut = client.submit(
+                render_job,
+                settings,
+                job,
+                attempt,
+                key=f"mi-npr-{job.id}-{attempt}-{tag}",
+                pure=False,
+                priority=priority,
+            )
+            attempts[fut.key] = (job, attempt)
+            return fut
+
+        futures = as_completed([submit(j, 1, len(jobs) - i) for i, j in enumerate(jobs)])
+        for fut in futures:
+            job, attempt = attempts.pop(fut.key)
+            try:
+                row = fut.result()
+            except Exception as e:  # the worker died (KilledWorker), the task could not run
+                row = {
+                    "job": job.id,
+                    "scene": job.scene,
+                    "scene_hash": job.scene_hash,
+                    "view": job.view,
+                    "camera": None,
+                    "flags": settings.flags(),
+                    "outputs": [],
+                    "status": "failed",
+                    "error": f"{job.id}: {type(e).__name__}: {one_line(e)}",
+                    "attempt": attempt,
+                    "worker": None,
+                    "seconds": None,
+                }
+            fut.release()
+            if row["status"] != "done" and attempt <= retries:
+                futures.add(submit(job, attempt + 1, len(jobs)))
+                continue
+            record(row)
+    finally:
+        if own_client is not None:
+            own_client.close()
+        if own_cluster is not None:
+            own_cluster.close()

@@ -283,6 +283,59 @@ def build_parser() -> argparse.ArgumentParser:
     _scene_batch_arguments(t, "raytree")
     _layer_arguments(t, ("raytree",))
 
+    bt = sub.add_parser(
+        "batch",
+        allow_abbrev=False,
+        help="scenes x viewpoints on Dask (local or a cluster), resumable: OUT/<stem>/<view>.exr",
+    )
+    _scene_batch_arguments(bt, "batch")
+    bt.add_argument(
+        "--views",
+        default="scene",
+        metavar="SPEC",
+        help="scene (default), orbit:N, sphere:N[:all], best:K[:MEASURE] or a JSON file of "
+        "cameras (origin, target, up, fov)",
+    )
+    bt.add_argument("--lines", action="store_true", help="add the npr_lines drawing")
+    bt.add_argument("--contours", action="store_true", help="add the npr_contours drawing")
+    bt.add_argument("--raytree", action="store_true", help="add the npr_raytree drawing")
+    bt.add_argument(
+        "--paper",
+        type=_rgb,
+        metavar="R,G,B",
+        help="paper colour of <view>_lines.png (linear RGB, default white 1,1,1)",
+    )
+    bt.add_argument(
+        "--workers",
+        type=cli_type("batch", "--workers"),
+        metavar="N",
+        help="worker processes of the local cluster (default: one per core; 0: this process)",
+    )
+    bt.add_argument(
+        "--threads-per-worker",
+        type=cli_type("batch", "--threads-per-worker"),
+        metavar="K",
+        help="Dr.Jit threads of each worker (default: the cores shared out)",
+    )
+    bt.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="a running Dask scheduler, e.g. tcp://10.0.0.1:8786 (OUT must be shared storage)",
+    )
+    bt.add_argument(
+        "--resume",
+        action="store_true",
+        help="skip the jobs OUT/manifest.jsonl shows done with the same scene and flags",
+    )
+    bt.add_argument(
+        "--retries",
+        type=cli_type("batch", "--retries"),
+        default=0,
+        metavar="R",
+        help="retries of a failed job (default 0)",
+    )
+    _layer_arguments(bt, ("lines", "contours", "raytree"))
+
     b = sub.add_parser(
         "best-view",
         help="find a scene's best viewpoint (paper eqs. 1-3) and write it as a Mitsuba sensor",
@@ -475,6 +528,44 @@ def _exit_code(results: list) -> int:
     return 1 if failed else 0
 
 
+def _cmd_batch(args: argparse.Namespace) -> int:
+    from .batch import run
+    from .io.manifest import MANIFEST
+
+    asked = [d for d in ("lines", "contours", "raytree") if getattr(args, d)]
+    params = _layer_values(args)
+    defines = dict(args.defines)
+    spp = defines.pop("spp", None)
+    if args.spp is not None:
+        spp = args.spp
+    rows = run(
+        args.scenes,
+        args.views,
+        out=args.output,
+        drawings=asked,
+        params=params,
+        width=args.width,
+        height=args.height,
+        spp=None if spp is None else int(spp),
+        seed=args.seed,
+        defines=defines,
+        workers=args.workers,
+        threads_per_worker=args.threads_per_worker,
+        scheduler=args.scheduler,
+        resume=args.resume,
+        retries=args.retries,
+        progress=not args.no_progress,
+        line_color=params.get("line_color"),
+        paper=args.paper,
+    )
+    failed = [r for r in rows if r.get("status") != "done"]
+    for r in failed:
+        _fail(str(r.get("error")))
+    manifest = Path(args.output) / MANIFEST
+    print(_t(f"{len(rows) - len(failed)} of {len(rows)} jobs done; manifest {manifest}"))
+    return 1 if failed else 0
+
+
 def _cmd_best_view(args: argparse.Namespace) -> int:
     from .viewpoint import plots_missing, write_best_view
 
@@ -562,6 +653,7 @@ COMMANDS = {
     "render": _cmd_render,
     "contours": _cmd_contours,
     "raytree": _cmd_raytree,
+    "batch": _cmd_batch,
     "best-view": _cmd_best_view,
     "foliage": _cmd_foliage,
     "info": _cmd_info,

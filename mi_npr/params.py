@@ -40,6 +40,15 @@ MAX_VIEW_DEPTH = 12
 MAX_HLPS = 1024
 #: Most selective-dilation passes (it stops changing anything after a few).
 MAX_ITERATIONS = 64
+#: Most worker processes and Dr.Jit threads per worker of ``mi-npr batch``.
+MAX_WORKERS = 1024
+MAX_THREADS = 1024
+#: Most retries of a failed batch job.
+MAX_RETRIES = 100
+#: Most views per scene (``orbit:N``, ``sphere:N``, a JSON file of cameras).
+MAX_VIEWS = 100_000
+#: Most best-view viewpoints (``best:K``): the search rates at most 40 (MAX_EVALUATIONS).
+MAX_BEST = 40
 #: Deepest ray tree (``npr_raytree``, ``mi-npr raytree --max-depth``).
 MAX_RAYTREE_DEPTH = 31
 
@@ -234,6 +243,22 @@ CLI_PARAMS: dict[str, tuple[Param, ...]] = {
         Param("--depth", int, 3, "levels of subdivision", integer_range(0, MAX_VIEW_DEPTH)),
         Param("--res", int, 128, "ID buffer long side", integer_range(1, MAX_RES)),
     ),
+    "batch": (
+        *_SIZE,
+        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
+        Param("--seed", int, 0, "sampler seed", seed_rule),
+        Param(
+            "--workers", int, None, "worker processes (0: this one)", integer_range(0, MAX_WORKERS)
+        ),
+        Param(
+            "--threads-per-worker",
+            int,
+            None,
+            "Dr.Jit threads per worker",
+            integer_range(1, MAX_THREADS),
+        ),
+        Param("--retries", int, 0, "retries of a failed job", integer_range(0, MAX_RETRIES)),
+    ),
     "foliage": (
         Param("--leaf-size", float, None, "leaf length", real_range(0.0, 1e6, open_lo=True)),
         Param("--abstraction", float, None, "normal mixing", real_range(0.0, 1.0)),
@@ -241,6 +266,16 @@ CLI_PARAMS: dict[str, tuple[Param, ...]] = {
         Param("--seed", int, 0, "seed", seed_rule),
     ),
 }
+
+
+#: The counts inside ``mi-npr batch --views SPEC`` (``orbit:N``, ``sphere:N``, ``best:K``, the
+#: cameras of a JSON file): checked like flags (:mod:`mi_npr.views`).
+VIEW_PARAMS: tuple[Param, ...] = (
+    Param("orbit", int, 8, "views on the orbit", integer_range(1, MAX_VIEWS)),
+    Param("sphere", int, 8, "views on the viewing sphere", integer_range(1, MAX_VIEWS)),
+    Param("best", int, 1, "best-rated views", integer_range(1, MAX_BEST)),
+    Param("file", int, 1, "cameras in a JSON file", integer_range(1, MAX_VIEWS)),
+)
 
 
 def cli_param(command: str, flag: str) -> Param:
@@ -288,4 +323,5 @@ def all_tables() -> dict[str, tuple[Param, ...]]:
                 tables[info.name] = tuple(dict.fromkeys([*tables.get(info.name, ()), *t]))
     for cmd, t in CLI_PARAMS.items():
         tables[f"mi-npr {cmd}"] = t
+    tables["mi-npr batch --views"] = VIEW_PARAMS
     return tables

@@ -127,7 +127,7 @@ def render_layers(
     params: Mapping[str, Any] | None = None,
     *,
     scene_drawings: bool = True,
-    sensor: int = 0,
+    sensor: int | mi.Sensor = 0,
     spp: int | str | None = None,
     seed: int = 0,
     resolution: tuple[int | None, int | None] | None = None,
@@ -141,9 +141,11 @@ def render_layers(
     :data:`LAYERS`) with the plugin parameters ``params`` (see :func:`settings` and the module
     docstring).
 
-    ``resolution=(W, H)`` and ``spp`` size the film and the sampler whatever the XML's
-    ``<default>`` names (:class:`~mi_npr.session.SceneSession`); ``defines`` and the other
-    keyword arguments fill the XML's ``<default>``\\ s; ``progress`` shows a bar on a long beauty.
+    ``sensor``: the scene's sensor index, or a sensor object (a batch's camera,
+    :func:`mi_npr.views.sensor_for`). ``resolution=(W, H)`` and ``spp`` size the film and the
+    sampler whatever the XML's ``<default>`` names (:class:`~mi_npr.session.SceneSession`);
+    ``defines`` and the other keyword arguments fill the XML's ``<default>``\\ s; ``progress``
+    shows a bar on a long beauty.
     ``cryptomatte`` adds the Cryptomatte layers (:mod:`mi_npr.cryptomatte`); ``vector`` traces
     the drawings as vector paths for the SVG writers (:attr:`LayeredRender.paths`,
     :attr:`LayeredRender.strokes`).

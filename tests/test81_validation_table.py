@@ -75,6 +75,7 @@ _ARGS = {
     "render": ["x.xml", "-o", "out"],
     "contours": ["x.xml", "-o", "out"],
     "raytree": ["x.xml", "-o", "out"],
+    "batch": ["x.xml", "-o", "out"],
     "best-view": ["x.xml", "--measure", "pb", "-o", "out"],
     "foliage": ["procedural:tree", "--style", "van_gogh", "-o", "x.xml"],
 }

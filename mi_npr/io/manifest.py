@@ -1,0 +1,104 @@
+"""The batch manifest ``OUT/manifest.jsonl`` and the content hash of a scene.
+
+One JSON object per line, one line per finished or failed job, appended by one process (the
+batch's client) with ``O_APPEND`` and a single ``write()`` of the whole line followed by
+``fsync``: a line is in the file whole or not at all, and lines of concurrent writers never
+interleave. A reader skips a line that does not parse (a disk that filled mid-line), so a
+manifest is always readable; the last line of a job wins.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import xml.etree.ElementTree as ET
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from ..errors import OutputError, ParameterError
+
+MANIFEST = "manifest.jsonl"
+
+
+def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
+    """Append ``row`` as one JSON line to ``path`` atomically (module docstring)."""
+    data = (json.dumps(row, sort_keys=True, allow_nan=False, default=str) + "\n").encode()
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+    except OSError as e:
+        raise OutputError(f"{path}: cannot write the manifest ({e.strerror})") from None
+    try:
+        n = os.write(fd, data)
+        if n != len(data):  # a full disk: the reader skips the partial line
+            raise OutputError(f"{path}: manifest line cut short (disk full?)")
+        os.fsync(fd)
+    except OSError as e:
+        raise OutputError(f"{path}: cannot write the manifest ({e.strerror})") from None
+    finally:
+        os.close(fd)
+
+
+def read_rows(path: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:
+    """The rows of a manifest in file order (none if it does not exist); bad lines skipped."""
+    try:
+        f = open(path, "rb")
+    except FileNotFoundError:
+        return
+    except OSError as e:
+        raise OutputError(f"{path}: cannot read the manifest ({e.strerror})") from None
+    with f:
+        for line in f:
+            try:
+                row = json.loads(line)
+            except (json.JSONDecodeError, UnicodeDecodeError):
+                continue
+            if isinstance(row, dict):
+                yield row
+
+
+def _referenced(xml: Path, seen: set[Path]) -> list[Path]:
+    """The files an XML scene names (``filename`` values and ``<include>``\\ s, recursively),
+    those that exist; names holding a ``$default`` cannot be resolved and are skipped."""
+    try:
+        root = ET.parse(xml).getroot()
+    except (ET.ParseError, OSError):
+        return []
+    found: list[Path] = []
+    for el in root.iter():
+        names = []
+        if el.tag == "include" and "filename" in el.attrib:
+            names.append(el.attrib["filename"])
+        if el.attrib.get("name") == "filename" and "value" in el.attrib:
+            names.append(el.attrib["value"])
+        for name in names:
+            if "$" in name:
+                continue
+            p = (xml.parent / name).resolve()
+            if p in seen or not p.is_file():
+                continue
+            seen.add(p)
+            found.append(p)
+            if p.suffix.lower() == ".xml":
+                found.extend(_referenced(p, seen))
+    return found
+
+
+def scene_hash(path: str | os.PathLike[str]) -> str:
+    """SHA-256 of a scene file and of every file it references (meshes, textures, includes,
+    in document order, each with its name relative to the scene): ``sha256:<hex>``."""
+    xml = Path(path).resolve()
+    h = hashlib.sha256()
+    try:
+        files = [xml, *_referenced(xml, {xml})]
+        for f in files:
+            rel = os.path.relpath(f, xml.parent) if f != xml else ""
+            h.update(rel.encode() + b"\0")
+            with open(f, "rb") as fh:
+                for block in iter(lambda fh=fh: fh.read(1 << 20), b""):
+                    h.update(block)
+            h.update(b"\0")
+    except OSError as e:
+        raise ParameterError(f"{path}: cannot read the scene ({e.strerror})") from None
+    return "sha256:" + h.hexdigest()

@@ -1,0 +1,172 @@
+"""Issue 15: the batch manifest (whole lines under concurrent appends, bad lines skipped), the
+scene's content hash, resume (what it skips and what it redoes), retries and failures, and the
+``mi-npr batch`` command's errors, in one process (``--workers 0``) and on a LocalCluster."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import os
+
+import pytest
+
+import mi_npr
+from mi_npr.io.manifest import append_row, read_rows, scene_hash
+
+from .helpers import run_cli
+
+BODY = """<shape type="sphere"><point name="center" x="0" y="0" z="3"/>
+<float name="radius" value="1"/></shape>"""
+
+
+def _appender(path: str, k: int, n: int) -> None:
+    for i in range(n):
+        append_row(path, {"writer": k, "i": i, "pad": "x" * (37 * i % 9000)})
+
+
+def test01_concurrent_appends_give_whole_lines(tmp_path):
+    path = str(tmp_path / "m.jsonl")
+    ctx = mp.get_context("fork")
+    procs = [ctx.Process(target=_appender, args=(path, k, 60)) for k in range(4)]
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join(60)
+    lines = open(path, "rb").read().split(b"\n")
+    assert lines[-1] == b""
+    rows = [json.loads(line) for line in lines[:-1]]  # every line parses whole
+    assert len(rows) == 240
+    for k in range(4):  # each writer's lines in its order
+        assert [r["i"] for r in rows if r["writer"] == k] == list(range(60))
+
+
+def test02_bad_lines_are_skipped(tmp_path):
+    path = tmp_path / "m.jsonl"
+    assert list(read_rows(path)) == []
+    append_row(path, {"job": "a"})
+    with open(path, "ab") as f:
+        f.write(b'[1, 2]\n{"job": "b", "stat')  # not an object; a line cut short
+    assert list(read_rows(path)) == [{"job": "a"}]
+    with pytest.raises(ValueError):
+        append_row(path, {"x": float("nan")})
+    assert list(read_rows(path)) == [{"job": "a"}]
+
+
+def test03_scene_hash_covers_referenced_files(tmp_path):
+    mesh = tmp_path / "m.ply"
+    mesh.write_bytes(b"ply 1")
+    inc = tmp_path / "inc.xml"
+    inc.write_text('<scene version="3.0.0"><bsdf type="diffuse" id="d"/></scene>')
+    xml = tmp_path / "s.xml"
+    xml.write_text(
+        '<scene version="3.0.0"><include filename="inc.xml"/>'
+        '<shape type="ply"><string name="filename" value="m.ply"/></shape>'
+        '<shape type="ply"><string name="filename" value="$mesh"/></shape></scene>'
+    )
+    h0 = scene_hash(xml)
+    assert h0.startswith("sha256:") and h0 == scene_hash(xml)
+    (tmp_path / "other.ply").write_bytes(b"unrelated")
+    assert scene_hash(xml) == h0
+    mesh.write_bytes(b"ply 2")
+    h1 = scene_hash(xml)
+    inc.write_text('<scene version="3.0.0"><bsdf type="conductor" id="d"/></scene>')
+    h2 = scene_hash(xml)
+    assert len({h0, h1, h2}) == 3
+    with pytest.raises(mi_npr.ParameterError, match=r"nope\.xml"):
+        scene_hash(tmp_path / "nope.xml")
+
+
+def _run(path, out, **kw):
+    kw = {"views": "orbit:3", "out": out, "workers": 0, "progress": False, **kw}
+    return mi_npr.batch.run([path], **kw)
+
+
+def test04_resume_skips_done_and_redoes_the_rest(write_scene, tmp_path):
+    path = write_scene(BODY, spp=1)
+    out = tmp_path / "out"
+    rows = _run(path, out, drawings=["lines"])
+    assert [r["status"] for r in rows] == ["done"] * 3
+    assert {r["job"] for r in rows} == {f"scene/orbit_{k:03d}" for k in range(3)}
+    for r in rows:
+        assert set(r) >= {"job", "scene", "scene_hash", "view", "camera", "flags", "outputs",
+                          "status", "error", "seconds", "worker"}  # fmt: skip
+        assert r["outputs"] == [f"scene/{r['view']}{s}" for s in
+                                (".exr", ".png", "_lines.png", "_lines.svg")]  # fmt: skip
+        assert r["scene"] == str(path.resolve()) and r["scene_hash"] == scene_hash(path)
+    manifest = out / "manifest.jsonl"
+    n = len(manifest.read_bytes().splitlines())
+    again = _run(path, out, drawings=["lines"], resume=True)
+    assert again == rows and len(manifest.read_bytes().splitlines()) == n  # nothing redone
+    os.unlink(out / "scene" / "orbit_001_lines.svg")  # a missing output: that job again
+    again = _run(path, out, drawings=["lines"], resume=True)
+    new = list(read_rows(manifest))[n:]
+    assert [r["job"] for r in new] == ["scene/orbit_001"]
+    assert (out / "scene" / "orbit_001_lines.svg").is_file()
+    # Other flags (spp), or another scene content: every job again.
+    again = _run(path, out, drawings=["lines"], resume=True, spp=2)
+    assert len(list(read_rows(manifest))) == n + 1 + 3
+    path.write_text(path.read_text().replace('value="1"/></shape>', 'value="0.9"/></shape>'))
+    _run(path, out, drawings=["lines"], resume=True, spp=2)
+    assert len(list(read_rows(manifest))) == n + 1 + 6
+    # Without --resume every job runs again.
+    _run(path, out, drawings=["lines"], spp=2)
+    assert len(list(read_rows(manifest))) == n + 1 + 9
+
+
+def test05_failures_are_recorded_and_the_others_go_on(write_scene, tmp_path):
+    good = write_scene(BODY, name="good.xml")
+    bad = tmp_path / "bad.xml"
+    bad.write_text('<scene version="3.0.0"><shape type="nosuchshape"/></scene>')
+    out = tmp_path / "out"
+    rows = mi_npr.batch.run([bad, good], "orbit:2", out=out, workers=0, retries=2,
+                            progress=False)  # fmt: skip
+    status = {r["job"]: (r["status"], r["attempt"]) for r in rows}
+    assert status == {"bad/orbit_000": ("failed", 3), "bad/orbit_001": ("failed", 3),
+                      "good/orbit_000": ("done", 1), "good/orbit_001": ("done", 1)}  # fmt: skip
+    err = rows[0]["error"]
+    assert "bad.xml" in err and "\n" not in err and "Traceback" not in err
+    assert not (out / "bad").exists() or not any((out / "bad").iterdir())
+
+
+def test06_cli_exit_codes_and_errors(write_scene, tmp_path):
+    good = write_scene(BODY, name="good.xml")
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<scene version='3.0.0'><shape type='nosuchshape'/></scene>")
+    out = tmp_path / "out"
+    r = run_cli("batch", str(good), str(bad), "-o", str(out), "--views", "orbit:2", "--workers",
+                "0", "--no-progress")  # fmt: skip
+    assert r.returncode == 1
+    assert "2 of 4 jobs done" in r.stdout and r.stderr.count("bad/orbit_00") == 2
+    assert "Traceback" not in r.stderr
+    for argv, code, words in [
+        (["--views", "orbit:0"], 1, "orbit"),
+        (["--views", "best:99"], 1, "best"),
+        (["--workers", "-1"], 2, "--workers"),
+        (["--workers", "5000"], 2, "--workers"),
+        (["--threads-per-worker", "0"], 2, "--threads-per-worker"),
+        (["--retries", "1000"], 2, "--retries"),
+        (["--scheduler", "tcp://127.0.0.1:9", "--views", "scene"], 1, "--scheduler"),
+        (["--crease-angle", "30"], 1, "crease_angle"),
+    ]:
+        r = run_cli("batch", str(good), "-o", str(tmp_path / "o2"), "--no-progress", *argv,
+                    env={"DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT": "1s"})  # fmt: skip
+        assert r.returncode == code, (argv, r.stderr)
+        assert "Traceback" not in r.stderr
+        assert words in r.stderr.strip().splitlines()[-1]  # one line says it
+
+
+def test07_local_cluster_and_resume_by_cli(write_scene, tmp_path):
+    """The default LocalCluster of two single-threaded workers (one thread of Dr.Jit each)."""
+    a = write_scene(BODY, name="a.xml")
+    b = write_scene(BODY.replace('z="3"', 'z="4"'), name="b.xml")
+    out = tmp_path / "out"
+    args = ["batch", str(a), str(b), "-o", str(out), "--views", "orbit:3", "--lines",
+            "--workers", "2", "--threads-per-worker", "1", "--no-progress"]  # fmt: skip
+    r = run_cli(*args)
+    assert r.returncode == 0, r.stderr
+    rows = list(read_rows(out / "manifest.jsonl"))
+    assert len(rows) == 6 and all(x["status"] == "done" for x in rows)
+    assert all(x["worker"].startswith("tcp://") for x in rows)
+    r = run_cli(*args, "--resume")
+    assert r.returncode == 0 and "6 of 6 jobs done" in r.stdout
+    assert len(list(read_rows(out / "manifest.jsonl"))) == 6
