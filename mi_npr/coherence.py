@@ -155,3 +155,54 @@ def figure(curves: Mapping[str, Mapping[str, Any]]) -> Any:
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
+
+
+#: The line variants of the thesis's claim (section 5.1), as :func:`mi_npr.kernels.lines`
+#: parameters on depth contours alone (no ID edges, no creases: those are drawn at full strength
+#: in every variant and would only dilute the difference) and whether the result is
+#: thresholded to black/white at ``t0``.
+VARIANTS: dict[str, tuple[dict[str, Any], bool]] = {
+    "gray": ({"dilation_iterations": 0, "remove_isolated": False}, False),
+    "black/white": ({"dilation_iterations": 0, "remove_isolated": False}, True),
+    "gray + pre-filter + eq. 5.2": ({"dilation_iterations": 1, "remove_isolated": True}, False),
+    "black/white + pre-filter + eq. 5.2": (
+        {"dilation_iterations": 1, "remove_isolated": True},
+        True,
+    ),
+}
+
+
+def variant_lines(frame: Any, name: str, **params: Any) -> np.ndarray:
+    """The ink of line variant ``name`` (:data:`VARIANTS`) of one frame's G-buffer (``Z``):
+    eq. 5.1 gray levels as they are, or thresholded at ``t0`` (black/white), with or without
+    the selective-dilation pre-filter (eqs. 5.3-5.4) and eq. 5.2. ``params`` are further
+    :func:`mi_npr.kernels.lines` parameters (``c``, ``t``, ``t0``...)."""
+    from .kernels import lines
+
+    if name not in VARIANTS:
+        raise ParameterError(f"line variant {name!r}: expected one of {', '.join(VARIANTS)}")
+    chain, bw = VARIANTS[name]
+    p = {"id_edges": False, "crease_angle": 0.0, **chain, **params}
+    ink = np.asarray(lines({L.Z: frame[L.Z]}, **p), np.float32)
+    if bw:
+        ink = (ink > p.get("t0", 0.5)).astype(np.float32)
+    return ink
+
+
+def line_variants(frames: Sequence[Any], **params: Any) -> dict[str, dict]:
+    """:func:`popping` of every line variant of :data:`VARIANTS` along ``frames`` (each with
+    ``Z``, ``P`` and a camera): the thesis's claim that gray levels and the pre-filter reduce
+    popping, measured. ``params`` go to :func:`variant_lines`."""
+    from .gbuffer import GBuffer
+
+    out = {}
+    for name in VARIANTS:
+        fr = [
+            GBuffer(
+                {**{n: f[n] for n in (L.Z, *L.P)}, L.LINES: variant_lines(f, name, **params)},
+                camera=_camera(f),
+            )
+            for f in frames
+        ]
+        out[name] = popping(fr, L.LINES)
+    return out

@@ -42,6 +42,8 @@ MAX_HLPS = 1024
 MAX_ITERATIONS = 64
 #: Deepest ray tree (``npr_raytree``, ``mi-npr raytree --max-depth``).
 MAX_RAYTREE_DEPTH = 31
+#: Most frames of one camera path (``mi-npr path --frames``; an hour at 25 fps is 90 000).
+MAX_FRAMES = 100_000
 
 
 def integer_range(lo: int, hi: int) -> Rule:
@@ -233,6 +235,16 @@ CLI_PARAMS: dict[str, tuple[Param, ...]] = {
         Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
         Param("--depth", int, 3, "levels of subdivision", integer_range(0, MAX_VIEW_DEPTH)),
         Param("--res", int, 128, "ID buffer long side", integer_range(1, MAX_RES)),
+    ),
+    "path": (
+        *_SIZE,
+        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
+        Param("--seed", int, 0, "sampler seed", seed_rule),
+        Param("--frames", int, None, "frames of the path", integer_range(1, MAX_FRAMES)),
+        Param("--fps", int, 24, "video frames per second", integer_range(1, 240)),
+        Param("--degrees", float, 360.0, "orbit angle", real_range(0.0, 3600.0, open_lo=True)),
+        Param("--max-speed", float, 4.0, "degrees per frame", real_range(0.0, 180.0, open_lo=True)),
+        Param("--max-turn", float, 12.0, "degrees per frame", real_range(0.0, 180.0, open_lo=True)),
     ),
     "foliage": (
         Param("--leaf-size", float, None, "leaf length", real_range(0.0, 1e6, open_lo=True)),

@@ -39,12 +39,10 @@ import mitsuba as mi
 import numpy as np
 
 from .errors import InputError, ParameterError
+from .params import MAX_FRAMES
 from .scene import camera_of, load_scene, sensor_of
 
 SceneLike = str | os.PathLike[str] | mi.Scene
-
-#: Upper bound on the frames of one path (the validation table's ``--frames``).
-MAX_FRAMES = 100_000
 
 
 @dataclass(frozen=True)
@@ -489,6 +487,28 @@ def explore(
     return Exploration(cams, qual, dirs, q, goals, measure)
 
 
+def make_path(
+    scene: SceneLike,
+    frames: int,
+    *,
+    explore_measure: str | None = None,
+    keys: str | os.PathLike[str] | Sequence[PathCamera] | None = None,
+    degrees: float = 360.0,
+    max_speed: float = 4.0,
+    max_turn: float = 12.0,
+) -> list[PathCamera]:
+    """The path of ``mi-npr path``: :func:`explore` with ``explore_measure``, :func:`through`
+    the keyframes ``keys`` (cameras or a JSON file of them), else an :func:`orbit`."""
+    if explore_measure is not None and keys is not None:
+        raise ParameterError("explore and keys: give one of them")
+    if explore_measure is not None:
+        return explore(scene, frames, explore_measure, max_speed=max_speed, max_turn=max_turn)
+    if keys is not None:
+        cams = keys if isinstance(keys, Sequence) and not isinstance(keys, str) else None
+        return through(cams if cams is not None else read_cameras(keys), frames)
+    return orbit(scene, frames, degrees)
+
+
 def path_qualities(
     scene: SceneLike, cameras: Sequence[PathCamera], measure: str = "entropy", res: int = 48
 ) -> np.ndarray:
@@ -558,6 +578,7 @@ def render_frames(
     defines: Mapping[str, Any] | None = None,
     video: str | None = None,
     fps: int = 24,
+    variants: bool = False,
     progress: bool = False,
     on_frame: Callable[[int, Any], None] | None = None,
 ) -> Frames:
@@ -571,10 +592,12 @@ def render_frames(
     cameras), ``coherence.json`` (:func:`mi_npr.coherence.popping` of the ``lines`` layer, or
     the ``contour`` layer without lines) and, with ``video`` (``"mp4"`` or ``"gif"``), the
     videos ``beauty.<fmt>`` (the beauty with the lines) and ``contours.<fmt>`` (the contour
-    overlay, with ``contours`` on) through :func:`mi_npr.io.frames.write_video`.
+    overlay, with ``contours`` on) through :func:`mi_npr.io.frames.write_video`. With
+    ``variants``, ``coherence.json`` also holds the popping of the four line variants of the
+    thesis's claim (:func:`mi_npr.coherence.line_variants`) and the plot draws them.
     """
     from . import layers as L
-    from .coherence import popping
+    from .coherence import line_variants, popping
     from .gbuffer import GBuffer
     from .io import write_layered_outputs, write_text
     from .io.frames import check_format, frame_image, write_coherence, write_video
@@ -618,9 +641,14 @@ def render_frames(
     files.append(write_text(outdir / "path.json", to_json(cams)))
     layer = L.LINES if L.LINES in kept[0] else L.CONTOUR if L.CONTOUR in kept[0] else None
     coherence = None
+    curves = line_variants(kept) if variants else None
     if layer is not None:
         coherence = popping(kept, layer=layer)
-        files += write_coherence(coherence, outdir)
+    elif curves:
+        coherence = {"layer": None, "overall": None}
+    if coherence is not None:
+        files += write_coherence(coherence, outdir, curves)
+        coherence = {**coherence, "variants": curves} if curves else coherence
     videos = []
     if video is not None:
         for name, images in movie.items():
@@ -628,3 +656,37 @@ def render_frames(
                 videos.append(write_video(outdir / f"{name}.{video}", images, fps=fps))
     files += videos
     return Frames(files, kept, coherence, videos)
+
+
+def render_path(
+    scene: SceneLike,
+    out: str | os.PathLike[str],
+    frames: int,
+    drawings: Sequence[str] = (),
+    params: Mapping[str, Any] | None = None,
+    *,
+    explore_measure: str | None = None,
+    keys: str | os.PathLike[str] | Sequence[PathCamera] | None = None,
+    degrees: float = 360.0,
+    max_speed: float = 4.0,
+    max_turn: float = 12.0,
+    resolution: tuple[int | None, int | None] | None = None,
+    spp: int | str | None = None,
+    defines: Mapping[str, Any] | None = None,
+    **options: Any,
+) -> Frames:
+    """``mi-npr path``: load ``scene`` once (``resolution``, ``spp``, ``defines``), build its
+    path (:func:`make_path`) and render it (:func:`render_frames`, ``options``)."""
+    from .session import SceneSession
+
+    session = SceneSession.open(scene, spp=spp, defines=defines, resolution=resolution)
+    cams = make_path(
+        session.scene,
+        frames,
+        explore_measure=explore_measure,
+        keys=keys,
+        degrees=degrees,
+        max_speed=max_speed,
+        max_turn=max_turn,
+    )
+    return render_frames(session.scene, cams, out, drawings, params, spp=session.spp, **options)

@@ -77,6 +77,7 @@ _ARGS = {
     "raytree": ["x.xml", "-o", "out"],
     "best-view": ["x.xml", "--measure", "pb", "-o", "out"],
     "foliage": ["procedural:tree", "--style", "van_gogh", "-o", "x.xml"],
+    "path": ["x.xml", "-o", "out", "--frames", "2"],
 }
 
 
