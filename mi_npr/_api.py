@@ -33,7 +33,19 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import contours, cryptomatte, data, foliage, io, kernels, pipeline, raytree, viewpoint  # noqa: E402
+from . import (  # noqa: E402
+    coherence,
+    contours,
+    cryptomatte,
+    data,
+    foliage,
+    io,
+    kernels,
+    paths,
+    pipeline,
+    raytree,
+    viewpoint,
+)
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -48,6 +60,7 @@ __all__ = [
     "ParameterError",
     "SceneError",
     "camera_of",
+    "coherence",
     "contours",
     "cryptomatte",
     "data",
@@ -59,6 +72,7 @@ __all__ = [
     "load_scene",
     "mi",
     "object_table",
+    "paths",
     "pipeline",
     "raytree",
     "render",
