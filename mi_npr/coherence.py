@@ -4,7 +4,7 @@ Popping (section 5.1 of the thesis) is line ink that appears or vanishes from on
 next although the surface under it stays in view. :func:`popping` measures it between
 consecutive frames ``a`` and ``b`` of a path:
 
-1. every pixel of ``a`` that saw a surface (finite ``P``) is *reprojected* into ``b``: its
+1. every pixel of ``a`` that saw a surface (finite ``Z``) is *reprojected* into ``b``: its
    world position ``P`` through ``b``'s camera (:func:`mi_npr.projection.project`, the one
    world -> pixel mapping) gives a pixel of ``b`` and a depth;
 2. pixels that leave ``b``'s image, or whose reprojected depth lies behind ``b``'s ``Z`` there
@@ -62,7 +62,7 @@ def reproject(
     radius: int = 1,
     depth_tolerance: float = 0.02,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Each pixel of ``frame`` (its ``P`` layer) seen by ``camera``: ``(col, row, depth,
+    """Each pixel of ``frame`` (its ``P`` and ``Z`` layers) seen by ``camera``: ``(col, row, depth,
     kept)``, integer pixel indices (-1 where not kept), the camera-space depth, and whether the
     pixel is kept (a surface, inside the image, in front, and not behind ``Z`` of the other
     frame when given; module docstring)."""
@@ -70,7 +70,9 @@ def reproject(
     x, y, depth = project(camera, P)
     w, h = camera.resolution
     with np.errstate(invalid="ignore"):
-        kept = np.all(np.isfinite(P), axis=-1) & np.isfinite(x) & np.isfinite(y)
+        # a surface: finite Z (the background's P holds zeros, its Z is +inf)
+        kept = np.isfinite(_numpy(frame, L.Z)) & np.all(np.isfinite(P), axis=-1)
+        kept &= np.isfinite(x) & np.isfinite(y)
         kept &= (x >= 0) & (x < w) & (y >= 0) & (y < h) & (depth > 0)
     col = np.where(kept, np.floor(np.nan_to_num(x)), -1).astype(np.int64)
     row = np.where(kept, np.floor(np.nan_to_num(y)), -1).astype(np.int64)
