@@ -356,6 +356,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--keys", metavar="CAMERAS.json", help="a smooth path through these keyframe cameras"
     )
     a.add_argument(
+        "--explore-ignore",
+        action="append",
+        default=[],
+        metavar="OBJECT",
+        help="--explore: an object counted as background by the measure (a floor); repeatable",
+    )
+    a.add_argument(
         "--degrees",
         type=cli_type("path", "--degrees"),
         default=360.0,
@@ -597,6 +604,7 @@ def _cmd_path(args: argparse.Namespace) -> int:
         tuple(d for d in ("lines", "contours", "raytree") if getattr(args, d)),
         _layer_values(args),
         explore_measure=args.explore,
+        explore_ignore=args.explore_ignore,
         keys=args.keys,
         degrees=args.degrees,
         max_speed=args.max_speed,

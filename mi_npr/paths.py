@@ -496,13 +496,22 @@ def make_path(
     degrees: float = 360.0,
     max_speed: float = 4.0,
     max_turn: float = 12.0,
+    explore_ignore: Sequence[str] = (),
 ) -> list[PathCamera]:
-    """The path of ``mi-npr path``: :func:`explore` with ``explore_measure``, :func:`through`
-    the keyframes ``keys`` (cameras or a JSON file of them), else an :func:`orbit`."""
+    """The path of ``mi-npr path``: :func:`explore` with ``explore_measure`` (objects named in
+    ``explore_ignore`` count as background), :func:`through` the keyframes ``keys`` (cameras or
+    a JSON file of them), else an :func:`orbit`."""
     if explore_measure is not None and keys is not None:
         raise ParameterError("explore and keys: give one of them")
     if explore_measure is not None:
-        return explore(scene, frames, explore_measure, max_speed=max_speed, max_turn=max_turn)
+        return explore(
+            scene,
+            frames,
+            explore_measure,
+            max_speed=max_speed,
+            max_turn=max_turn,
+            ignore=explore_ignore,
+        )
     if keys is not None:
         cams = keys if isinstance(keys, Sequence) and not isinstance(keys, str) else None
         return through(cams if cams is not None else read_cameras(keys), frames)
@@ -670,6 +679,7 @@ def render_path(
     degrees: float = 360.0,
     max_speed: float = 4.0,
     max_turn: float = 12.0,
+    explore_ignore: Sequence[str] = (),
     resolution: tuple[int | None, int | None] | None = None,
     spp: int | str | None = None,
     defines: Mapping[str, Any] | None = None,
@@ -688,5 +698,6 @@ def render_path(
         degrees=degrees,
         max_speed=max_speed,
         max_turn=max_turn,
+        explore_ignore=explore_ignore,
     )
     return render_frames(session.scene, cams, out, drawings, params, spp=session.spp, **options)

@@ -22,6 +22,7 @@ SMALL = ["--width", "40", "--height", "30", "--spp", "1", "--no-progress"]
 def explored(tmp_path_factory):
     out = tmp_path_factory.mktemp("path")
     argv = ["path", SCENE3, "-o", str(out), "--frames", "5", "--explore", "entropy"]
+    argv += ["--explore-ignore", "floor"]
     rc = main([*argv, "--lines", "--contours", "--video", "gif", "--variants", *SMALL])
     assert rc == 0
     return out
@@ -41,6 +42,7 @@ def test01_frames_drawings_and_path(explored):
         np.testing.assert_allclose(cam.forward, cams[i].direction, atol=1e-4)
         assert cam.resolution == (40, 30) and cam.fov == pytest.approx(cams[i].fov, abs=1e-4)
     assert not list(explored.glob(".*.tmp"))
+    assert cams == P.explore(SCENE3, 5, "entropy", ignore=["floor"])  # the flag reached explore
 
 
 def test02_coherence_json_and_videos(explored):
@@ -88,6 +90,7 @@ def test04_orbit_is_the_default(tmp_path):
         (["--frames", "2", "--video", "avi"], 2, "--video"),
         (["--frames", "2", "--max-speed", "0"], 2, "--max-speed"),
         (["--frames", "2", "--keys", "/nonexistent/k.json"], 1, "k.json"),
+        (["--frames", "2", "--explore", "pb", "--explore-ignore", "nothing"], 1, "'nothing'"),
     ],
 )
 def test05_bad_arguments(tmp_path, capsys, extra, code, words):
