@@ -33,7 +33,20 @@ if mi.variant() is None:
 else:
     register_plugins()
 
-from . import batch, contours, cryptomatte, data, foliage, io, kernels, pipeline, raytree, viewpoint  # noqa: E402
+from . import (  # noqa: E402
+    batch,
+    coherence,
+    contours,
+    cryptomatte,
+    data,
+    foliage,
+    io,
+    kernels,
+    paths,
+    pipeline,
+    raytree,
+    viewpoint,
+)
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
 
@@ -49,6 +62,7 @@ __all__ = [
     "SceneError",
     "batch",
     "camera_of",
+    "coherence",
     "contours",
     "cryptomatte",
     "data",
@@ -60,6 +74,7 @@ __all__ = [
     "load_scene",
     "mi",
     "object_table",
+    "paths",
     "pipeline",
     "raytree",
     "render",

@@ -382,6 +382,84 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--json", action="store_true", help="print the result as JSON")
     _memory_argument(b)
 
+    a = sub.add_parser(
+        "path",
+        allow_abbrev=False,
+        help="render a camera path (orbit, exploration through good views, or keyframes): "
+        "frames, path.json, coherence.json and videos",
+    )
+    a.add_argument(
+        "scene", metavar="SCENE.xml", help="Mitsuba XML scene, or a bundled scene's name"
+    )
+    a.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
+    a.add_argument(
+        "--frames", type=cli_type("path", "--frames"), required=True, metavar="N", help="frames"
+    )
+    how = a.add_mutually_exclusive_group()
+    how.add_argument(
+        "--explore",
+        choices=["pb", "curvature", "entropy"],
+        metavar="MEASURE",
+        help="explore through good views of this measure (pb, curvature, entropy; paper eqs. 1-3)",
+    )
+    how.add_argument(
+        "--orbit", action="store_true", help="turn about the scene's up axis (the default)"
+    )
+    how.add_argument(
+        "--keys", metavar="CAMERAS.json", help="a smooth path through these keyframe cameras"
+    )
+    a.add_argument(
+        "--explore-ignore",
+        action="append",
+        default=[],
+        metavar="OBJECT",
+        help="--explore: an object counted as background by the measure (a floor); repeatable",
+    )
+    a.add_argument(
+        "--degrees",
+        type=cli_type("path", "--degrees"),
+        default=360.0,
+        metavar="X",
+        help="orbit angle (default 360)",
+    )
+    a.add_argument(
+        "--max-speed",
+        type=cli_type("path", "--max-speed"),
+        default=4.0,
+        metavar="DEG",
+        help="--explore: most degrees the camera moves per frame (default 4)",
+    )
+    a.add_argument(
+        "--max-turn",
+        type=cli_type("path", "--max-turn"),
+        default=12.0,
+        metavar="DEG",
+        help="--explore: most degrees its direction of motion turns per frame (default 12)",
+    )
+    a.add_argument("--lines", action="store_true", help="add the npr_lines drawing")
+    a.add_argument("--contours", action="store_true", help="add the npr_contours drawing")
+    a.add_argument("--raytree", action="store_true", help="add the npr_raytree drawing")
+    a.add_argument(
+        "--video", choices=["mp4", "gif"], metavar="FORMAT", help="also write videos: mp4 or gif"
+    )
+    a.add_argument(
+        "--fps", type=cli_type("path", "--fps"), default=24, metavar="N", help="video rate"
+    )
+    a.add_argument(
+        "--variants",
+        action="store_true",
+        help="also measure the popping of the four line variants (gray, black/white, with and "
+        "without the pre-filter and eq. 5.2) into coherence.json",
+    )
+    _define_argument(a)
+    _size_arguments(a, "path")
+    a.add_argument(
+        "--seed", type=cli_type("path", "--seed"), default=0, help="sampler seed (default 0)"
+    )
+    a.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _memory_argument(a)
+    _layer_arguments(a, ("lines", "contours", "raytree"))
+
     f = sub.add_parser("foliage", help="turn a plant (PLY/OBJ) into a foliage scene in a style")
     f.add_argument(
         "input",
@@ -602,6 +680,46 @@ def _cmd_best_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_path(args: argparse.Namespace) -> int:
+    import mi_npr
+
+    from .paths import render_path
+
+    outdir = mi_npr.io.check_writable_dir(args.output, create=True)
+    defines = dict(args.defines)
+    spp = defines.pop("spp", None)
+    result = render_path(
+        args.scene,
+        outdir,
+        args.frames,
+        tuple(d for d in ("lines", "contours", "raytree") if getattr(args, d)),
+        _layer_values(args),
+        explore_measure=args.explore,
+        explore_ignore=args.explore_ignore,
+        keys=args.keys,
+        degrees=args.degrees,
+        max_speed=args.max_speed,
+        max_turn=args.max_turn,
+        resolution=_resolution(args),
+        spp=args.spp if args.spp is not None else spp,
+        defines=defines,
+        seed=args.seed,
+        video=args.video,
+        fps=args.fps,
+        variants=args.variants,
+        progress=not args.no_progress and sys.stderr.isatty(),
+    )
+    c = result.coherence
+    print(f"{_t(args.scene)}: {args.frames} frames in {_t(outdir)}")
+    if c is not None and c.get("overall") is not None:
+        print(f"  popping ({c['layer']}): {c['overall']:.4f} of the line ink per frame pair")
+    for name, v in (c or {}).get("variants", {}).items():
+        print(f"  popping ({name}): {v['overall']:.4f}")
+    for path in result.videos or []:
+        print(f"  wrote {_t(path)}")
+    return 0
+
+
 def _cmd_foliage(args: argparse.Namespace) -> int:
     from .foliage.styles import make_scene
 
@@ -655,6 +773,7 @@ COMMANDS = {
     "raytree": _cmd_raytree,
     "batch": _cmd_batch,
     "best-view": _cmd_best_view,
+    "path": _cmd_path,
     "foliage": _cmd_foliage,
     "info": _cmd_info,
 }
@@ -706,7 +825,7 @@ def _run(
 
         if hasattr(args, "scenes"):  # a bundled scene by name: `mi-npr render scene1`
             args.scenes = [resolve(s) for s in args.scenes]
-        if args.command == "best-view":
+        if args.command in ("best-view", "path"):
             args.scene = resolve(args.scene)
         return COMMANDS[args.command](args)
     except KeyboardInterrupt:

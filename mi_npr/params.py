@@ -51,6 +51,8 @@ MAX_VIEWS = 100_000
 MAX_BEST = 40
 #: Deepest ray tree (``npr_raytree``, ``mi-npr raytree --max-depth``).
 MAX_RAYTREE_DEPTH = 31
+#: Most frames of one camera path (``mi-npr path --frames``; an hour at 25 fps is 90 000).
+MAX_FRAMES = 100_000
 
 
 def integer_range(lo: int, hi: int) -> Rule:
@@ -258,6 +260,16 @@ CLI_PARAMS: dict[str, tuple[Param, ...]] = {
             integer_range(1, MAX_THREADS),
         ),
         Param("--retries", int, 0, "retries of a failed job", integer_range(0, MAX_RETRIES)),
+    ),
+    "path": (
+        *_SIZE,
+        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
+        Param("--seed", int, 0, "sampler seed", seed_rule),
+        Param("--frames", int, None, "frames of the path", integer_range(1, MAX_FRAMES)),
+        Param("--fps", int, 24, "video frames per second", integer_range(1, 240)),
+        Param("--degrees", float, 360.0, "orbit angle", real_range(0.0, 3600.0, open_lo=True)),
+        Param("--max-speed", float, 4.0, "degrees per frame", real_range(0.0, 180.0, open_lo=True)),
+        Param("--max-turn", float, 12.0, "degrees per frame", real_range(0.0, 180.0, open_lo=True)),
     ),
     "foliage": (
         Param("--leaf-size", float, None, "leaf length", real_range(0.0, 1e6, open_lo=True)),

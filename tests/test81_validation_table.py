@@ -78,6 +78,7 @@ _ARGS = {
     "batch": ["x.xml", "-o", "out"],
     "best-view": ["x.xml", "--measure", "pb", "-o", "out"],
     "foliage": ["procedural:tree", "--style", "van_gogh", "-o", "x.xml"],
+    "path": ["x.xml", "-o", "out", "--frames", "2"],
 }
 
 

@@ -50,6 +50,7 @@ from .. import layers as L
 from .._version import __version__
 from ..errors import InputError, NprError, OutputError, check_input_file
 from ..gbuffer import Camera, GBuffer
+from ..projection import world_to_camera, world_to_ndc
 from ._atomic import atomic_output
 
 _PREFIX = "mi_npr/"
@@ -61,38 +62,6 @@ _USER = _PREFIX + "meta/"  # metadata keys given without the prefix
 _INTEGER = _PREFIX + "integer_layers"
 #: Metadata keys written as they are (other standards' attributes), not under ``mi_npr/``.
 _FOREIGN = ("cryptomatte/",)
-
-#: OpenEXR/RenderMan camera space against Mitsuba's: x is mirrored (Mitsuba's +x is left).
-_MIRROR_X = np.diag([-1.0, 1.0, 1.0, 1.0])
-
-
-def world_to_camera(camera: Camera) -> np.ndarray:
-    """World -> OpenEXR camera space (+x right, +y up, +z forward), 4x4 for column vectors."""
-    return _MIRROR_X @ np.linalg.inv(camera.to_world)
-
-
-def world_to_ndc(camera: Camera) -> np.ndarray | None:
-    """World -> OpenEXR NDC (homogeneous, column vectors; ``None`` unless perspective).
-
-    After the divide by w: x = 0 at the image's left edge and 1 at its right, y = 0 at the top
-    and 1 at the bottom (RenderMan's NDC, which OpenEXR's standard attributes use), z = 0 on the
-    near and 1 on the far clip plane. ``camera.fov`` is Mitsuba's horizontal field of view.
-    """
-    if camera.fov is None or camera.kind != "perspective":
-        return None
-    w, h = camera.resolution
-    tan_x = np.tan(np.radians(camera.fov) / 2.0)
-    tan_y = tan_x * h / w
-    n, f = camera.near_clip, camera.far_clip
-    proj = np.array(
-        [
-            [0.5 / tan_x, 0.0, 0.5, 0.0],
-            [0.0, -0.5 / tan_y, 0.5, 0.0],
-            [0.0, 0.0, f / (f - n), -f * n / (f - n)],
-            [0.0, 0.0, 1.0, 0.0],
-        ]
-    )
-    return proj @ world_to_camera(camera)
 
 
 def _file_layer(path: Path, name: str, a: np.ndarray) -> np.ndarray:

@@ -1,0 +1,110 @@
+"""The files of a camera path beside its frames: the videos, ``mp4`` (H.264 through
+``imageio-ffmpeg``'s own ffmpeg binary) or ``gif`` (Pillow), and the temporal-coherence
+measure (``coherence.json`` and its plot ``coherence.png``), written through temporary files
+like every other output."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OutputError, ParameterError
+from ._atomic import atomic_output
+from .png import to_rgb8
+
+#: The video formats ``mi-npr path --video`` writes.
+FORMATS = ("mp4", "gif")
+
+
+def check_format(fmt: str) -> str:
+    """``fmt`` if it is one of :data:`FORMATS`, else a :class:`ParameterError`."""
+    if fmt not in FORMATS:
+        raise ParameterError(f"video format {fmt!r}: expected one of {', '.join(FORMATS)}")
+    return fmt
+
+
+def frame_image(image: np.ndarray) -> np.ndarray:
+    """A linear float (H, W, 3) picture as the sRGB uint8 frame of a video."""
+    return to_rgb8(np.asarray(image)[..., :3])
+
+
+def _even(a: np.ndarray) -> np.ndarray:
+    """H.264 in yuv420p needs even sides: repeat the last row/column where odd."""
+    h, w = a.shape[:2]
+    return np.pad(a, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
+
+
+def write_video(path: str | os.PathLike[str], frames: Sequence[np.ndarray], fps: int = 24) -> Path:
+    """Write uint8 (H, W, 3) ``frames`` as ``path`` (its suffix ``.mp4`` or ``.gif`` picks the
+    format). ``mp4`` needs the ``imageio-ffmpeg`` package (a dependency of mi-npr)."""
+    target = Path(path)
+    fmt = check_format(target.suffix.lstrip("."))
+    if not frames:
+        raise ParameterError(f"{target}: no frames")
+    if isinstance(fps, bool) or not isinstance(fps, int) or not 1 <= fps <= 240:
+        raise ParameterError(f"fps = {fps!r}: must be in [1, 240]")
+    images = [np.ascontiguousarray(f, np.uint8) for f in frames]
+    with atomic_output(target) as tmp:
+        if fmt == "gif":
+            from PIL import Image
+
+            pics = [Image.fromarray(a) for a in images]
+            pics[0].save(
+                tmp,
+                format="GIF",
+                save_all=True,
+                append_images=pics[1:],
+                duration=round(1000 / fps),
+                loop=0,
+            )
+        else:
+            _write_mp4(tmp, [_even(a) for a in images], fps, target)
+    return target
+
+
+def _write_mp4(tmp: str, images: list[np.ndarray], fps: int, target: Path) -> None:
+    try:
+        import imageio_ffmpeg
+    except ImportError:
+        raise OutputError(f"{target}: mp4 needs the imageio-ffmpeg package") from None
+    h, w = images[0].shape[:2]
+    cmd = [
+        imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error",
+        "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{w}x{h}", "-r", str(fps), "-i", "-",
+        "-an", "-vcodec", "libx264", "-pix_fmt", "yuv420p", "-f", "mp4", tmp,
+    ]  # fmt: skip
+    proc = subprocess.run(cmd, input=b"".join(a.tobytes() for a in images), capture_output=True)
+    if proc.returncode != 0:
+        msg = proc.stderr.decode(errors="replace").strip().splitlines()
+        raise OutputError(f"{target}: ffmpeg failed ({msg[-1] if msg else proc.returncode})")
+
+
+def write_coherence(
+    coherence: dict, outdir: str | os.PathLike[str], curves: dict | None = None
+) -> list[Path]:
+    """``coherence.json`` (``coherence``, plus any other ``curves``: name -> a
+    :func:`mi_npr.coherence.popping` result) and, with matplotlib (the ``plots`` extra), its
+    plot ``coherence.png``; without matplotlib the plot is skipped. Returns the paths."""
+    from ..coherence import figure
+    from .text import write_text
+
+    out = Path(outdir)
+    data = dict(coherence)
+    if curves:
+        data["variants"] = curves
+    files = [write_text(out / "coherence.json", json.dumps(data, indent=1))]
+    fig = figure({"path": coherence, **(curves or {})})
+    if fig is not None:
+        target = out / "coherence.png"
+        with atomic_output(target) as tmp:
+            fig.savefig(tmp, format="png", dpi=100)
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        files.append(target)
+    return files

@@ -1,0 +1,703 @@
+"""Camera paths as data: orbits, splines through keyframes, and the paper's exploration.
+
+A path is a list of :class:`PathCamera` (``origin``, ``target``, ``up``, ``fov`` in degrees,
+horizontal like Mitsuba's ``x_fov``, and ``time``, the frame's time in [0, 1]). It is written
+and read as JSON (:func:`to_json`, :func:`from_json`): a list of objects with ``origin``,
+``target``, ``up``, ``fov`` (and ``time``), the camera format the batch engine reads.
+
+- :func:`orbit`: a turn around the scene's up axis through the centre of its bounding sphere,
+  starting from the scene's own camera;
+- :func:`through`: a smooth path through keyframes. Positions (``origin`` and ``target``) follow
+  a centripetal Catmull-Rom spline, which passes through every keyframe and never overshoots
+  into cusps or self-intersections, with the frames between two keyframes spread evenly by
+  the origin's arc length (a constant speed from key to key); keyframe ``k`` of ``K`` is
+  frame ``round(k (N - 1) / (K - 1))`` exactly. Orientation has no flips: ``up`` is the
+  keyframes' ``up`` blended linearly and made orthogonal to the view direction; where that
+  is degenerate (looking along ``up``), the previous frame's ``up`` is parallel-transported
+  (rotated by the smallest rotation taking the previous view direction to the new one), so
+  ``up`` never jumps;
+- :func:`explore`: the exploration of the paper (section 2.1, last paragraph: "a camera that
+  chooses good viewpoints along a path avoiding brusque changes of direction"), see its
+  docstring;
+- :func:`render_frames`: every camera rendered with :func:`mi_npr.pipeline.render_layers` (the
+  scene loaded once, one sensor per camera sharing the scene sensor's film, sampler and
+  reconstruction filter), written as ``frame_0000.exr`` ... with the drawings' PNGs,
+  ``path.json``, ``coherence.json`` (:mod:`mi_npr.coherence`) and the videos.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mitsuba as mi
+import numpy as np
+
+from .errors import InputError, ParameterError
+from .params import MAX_FRAMES
+from .scene import camera_of, load_scene, sensor_of
+
+SceneLike = str | os.PathLike[str] | mi.Scene
+
+
+@dataclass(frozen=True)
+class PathCamera:
+    """One camera of a path: a ``lookat`` (``origin``, ``target``, ``up``), the horizontal field
+    of view ``fov`` in degrees and the frame's ``time`` in [0, 1]."""
+
+    origin: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float]
+    fov: float
+    time: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("origin", "target", "up"):
+            try:
+                v = np.asarray(getattr(self, name), np.float64).reshape(-1)
+            except (TypeError, ValueError):
+                v = np.full(1, np.nan)
+            if v.shape != (3,) or not np.all(np.isfinite(v)):
+                raise ParameterError(f"camera {name} = {getattr(self, name)!r}: expected 3 numbers")
+            object.__setattr__(self, name, tuple(float(x) for x in v))
+        fov = self.fov
+        if isinstance(fov, bool) or not isinstance(fov, (int, float)) or not 0 < fov < 180:
+            raise ParameterError(f"camera fov = {fov!r}: must be in (0, 180) degrees")
+        object.__setattr__(self, "fov", float(fov))
+        object.__setattr__(self, "time", float(self.time))
+        d = np.subtract(self.target, self.origin)
+        if np.linalg.norm(d) == 0:
+            raise ParameterError(f"camera at {self.origin}: origin and target are the same point")
+        if np.linalg.norm(np.cross(d, self.up)) <= 1e-9 * np.linalg.norm(d):
+            raise ParameterError(f"camera at {self.origin}: up {self.up} is along the view")
+
+    @property
+    def direction(self) -> np.ndarray:
+        """The unit view direction."""
+        d = np.subtract(self.target, self.origin)
+        return d / np.linalg.norm(d)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "origin": list(self.origin),
+            "target": list(self.target),
+            "up": list(self.up),
+            "fov": self.fov,
+            "time": self.time,
+        }
+
+    def transform(self) -> mi.ScalarTransform4f:
+        """The sensor's ``to_world`` (Mitsuba's ``look_at``)."""
+        return mi.ScalarTransform4f().look_at(origin=self.origin, target=self.target, up=self.up)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _times(n: int) -> np.ndarray:
+    return np.linspace(0.0, 1.0, n) if n > 1 else np.zeros(1)
+
+
+def check_frames(frames: Any) -> int:
+    """``frames`` as an int in [1, :data:`MAX_FRAMES`], else a :class:`ParameterError`."""
+    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)):
+        raise ParameterError(f"frames = {frames!r}: must be an integer")
+    if not 1 <= frames <= MAX_FRAMES:
+        raise ParameterError(f"frames = {frames}: must be in [1, {MAX_FRAMES}]")
+    return int(frames)
+
+
+# --------------------------------------------------------------------------------------- JSON
+
+
+def to_json(cameras: Sequence[PathCamera]) -> str:
+    """The path as JSON: a list of ``{"origin", "target", "up", "fov", "time"}`` objects."""
+    return json.dumps([c.to_dict() for c in cameras], indent=1)
+
+
+def from_json(text: str, source: str = "cameras") -> list[PathCamera]:
+    """A path from :func:`to_json`'s format (``time`` optional: evenly spread when absent;
+    ``fov`` required). Errors name ``source`` and the camera."""
+    try:
+        data = json.loads(text)
+    except ValueError as e:
+        raise InputError(f"{source}: not JSON ({e})") from None
+    if not isinstance(data, list) or not data:
+        raise InputError(f"{source}: expected a non-empty list of cameras")
+    times = _times(len(data))
+    out = []
+    for i, c in enumerate(data):
+        if not isinstance(c, dict):
+            raise InputError(f"{source}: camera {i} is not an object")
+        missing = [k for k in ("origin", "target", "up", "fov") if k not in c]
+        if missing:
+            raise InputError(f"{source}: camera {i} has no {missing[0]!r}")
+        try:
+            out.append(
+                PathCamera(c["origin"], c["target"], c["up"], c["fov"], c.get("time", times[i]))
+            )
+        except (ParameterError, TypeError, ValueError) as e:
+            raise InputError(f"{source}: camera {i}: {e}") from None
+    return out
+
+
+def read_cameras(path: str | os.PathLike[str]) -> list[PathCamera]:
+    """The cameras of a JSON file (:func:`from_json`)."""
+    from .errors import check_input_file
+
+    check_input_file(os.fspath(path), InputError)
+    return from_json(Path(path).read_text(encoding="utf-8"), os.fspath(path))
+
+
+# -------------------------------------------------------------------------------- scene setup
+
+
+def scene_camera(scene: mi.Scene, sensor: int | mi.Sensor = 0) -> PathCamera:
+    """The scene sensor's camera as a :class:`PathCamera` (target one unit ahead)."""
+    cam = camera_of(sensor_of(scene, sensor))
+    if cam.fov is None:
+        raise ParameterError(f"sensor {sensor!r}: camera paths need a perspective sensor")
+    o = cam.origin
+    return PathCamera(o, o + cam.forward, cam.up, cam.fov)
+
+
+def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rodrigues' rotation of ``v`` about the unit ``axis`` by ``angle`` radians."""
+    c, s = math.cos(angle), math.sin(angle)
+    return v * c + np.cross(axis, v) * s + axis * np.dot(axis, v) * (1 - c)
+
+
+def orbit(
+    scene: SceneLike,
+    frames: int,
+    degrees: float = 360.0,
+    *,
+    target: Sequence[float] | None = None,
+    sensor: int = 0,
+) -> list[PathCamera]:
+    """``frames`` cameras turning ``degrees`` about the scene's up axis (the world axis nearest
+    its camera's ``up``) through ``target`` (default: the centre of the scene's bounding
+    sphere), starting at the scene's camera and keeping its distance, height and ``fov``. A
+    full turn (360) does not repeat its first view: frame ``i`` is at ``i * degrees / frames``.
+    """
+    from .viewpoint.search import _nearest_axis
+
+    frames = check_frames(frames)
+    if not math.isfinite(degrees):
+        raise ParameterError(f"degrees = {degrees!r}: must be finite")
+    s = load_scene(scene)
+    start = scene_camera(s, sensor)
+    up = _nearest_axis(np.asarray(start.up))
+    if target is None:
+        bs = s.bbox().bounding_sphere()
+        tgt = np.asarray(bs.center, np.float64).ravel()[:3]
+    else:
+        tgt = np.asarray(target, np.float64).reshape(3)
+    arm = np.asarray(start.origin) - tgt
+    if np.linalg.norm(np.cross(arm, up)) < 1e-9 * max(np.linalg.norm(arm), 1e-30):
+        raise ParameterError("orbit: the scene's camera is on the up axis through the target")
+    step = math.radians(degrees) / (frames if abs(degrees) >= 360 else max(frames - 1, 1))
+    times = _times(frames)
+    return [
+        PathCamera(tgt + _rotate(arm, up, i * step), tgt, up, start.fov, times[i])
+        for i in range(frames)
+    ]
+
+
+# ------------------------------------------------------------------------------ interpolation
+
+
+def _catmull_rom(p: np.ndarray, seg: int, s: float) -> np.ndarray:
+    """Centripetal Catmull-Rom (alpha = 1/2) between ``p[seg]`` and ``p[seg + 1]`` at ``s`` in
+    [0, 1]; the end segments mirror their neighbour as the missing control point."""
+    n = len(p)
+    p1, p2 = p[seg], p[seg + 1]
+    p0 = p[seg - 1] if seg > 0 else 2 * p1 - p2
+    p3 = p[seg + 2] if seg + 2 < n else 2 * p2 - p1
+    if np.allclose(p1, p2):
+        return p1.copy()
+
+    def knot(t: float, a: np.ndarray, b: np.ndarray) -> float:
+        return t + max(float(np.linalg.norm(b - a)), 1e-12) ** 0.5
+
+    t0 = 0.0
+    t1 = knot(t0, p0, p1)
+    t2 = knot(t1, p1, p2)
+    t3 = knot(t2, p2, p3)
+    t = t1 + s * (t2 - t1)
+    a1 = (t1 - t) / (t1 - t0) * p0 + (t - t0) / (t1 - t0) * p1
+    a2 = (t2 - t) / (t2 - t1) * p1 + (t - t1) / (t2 - t1) * p2
+    a3 = (t3 - t) / (t3 - t2) * p2 + (t - t2) / (t3 - t2) * p3
+    b1 = (t2 - t) / (t2 - t0) * a1 + (t - t0) / (t2 - t0) * a2
+    b2 = (t3 - t) / (t3 - t1) * a2 + (t - t1) / (t3 - t1) * a3
+    return (t2 - t) / (t2 - t1) * b1 + (t - t1) / (t2 - t1) * b2
+
+
+#: Spline parameters at which a segment's arc length is tabulated.
+_ARC_S = np.linspace(0.0, 1.0, 129)
+
+
+def _arc_length(p: np.ndarray, seg: int) -> np.ndarray:
+    """Cumulative length of segment ``seg`` at :data:`_ARC_S`: frames are spread evenly by
+    length, so the camera moves at a constant speed between two keyframes."""
+    pts = np.array([_catmull_rom(p, seg, s) for s in _ARC_S])
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+
+
+def _transport(up: np.ndarray, d0: np.ndarray, d1: np.ndarray) -> np.ndarray:
+    """``up`` rotated by the smallest rotation taking direction ``d0`` to ``d1``."""
+    axis = np.cross(d0, d1)
+    s = np.linalg.norm(axis)
+    if s < 1e-12:
+        return up
+    return _rotate(up, axis / s, math.atan2(s, float(np.dot(d0, d1))))
+
+
+def key_frames(keys: int, frames: int) -> list[int]:
+    """The frame of each of ``keys`` keyframes in a path of ``frames`` frames."""
+    if keys == 1:
+        return [0]
+    return [round(k * (frames - 1) / (keys - 1)) for k in range(keys)]
+
+
+def through(cameras: Sequence[PathCamera], frames: int) -> list[PathCamera]:
+    """``frames`` cameras through the keyframes ``cameras`` (module docstring): keyframe ``k``
+    is frame ``round(k (frames - 1) / (K - 1))``, ``fov`` and ``time`` are blended linearly."""
+    frames = check_frames(frames)
+    keys = list(cameras)
+    if not keys:
+        raise ParameterError("through: no keyframes")
+    if not all(isinstance(c, PathCamera) for c in keys):
+        raise ParameterError("through: keyframes must be PathCamera objects")
+    if len(keys) == 1:
+        return [keys[0]] * frames
+    if frames < len(keys):
+        raise ParameterError(f"frames = {frames}: fewer than the {len(keys)} keyframes")
+    origins = np.array([c.origin for c in keys])
+    T = np.array([c.target for c in keys])
+    U = np.array([c.up for c in keys])
+    at = key_frames(len(keys), frames)
+    out: list[PathCamera] = []
+    prev_up = prev_d = None
+    for seg in range(len(keys) - 1):
+        a, b = keys[seg], keys[seg + 1]
+        last = seg == len(keys) - 2
+        arc = _arc_length(origins, seg)
+        for f in range(at[seg], at[seg + 1] + (1 if last else 0)):
+            u = (f - at[seg]) / max(at[seg + 1] - at[seg], 1)
+            s = float(np.interp(u * arc[-1], arc, _ARC_S)) if arc[-1] > 0 else u
+            o = _catmull_rom(origins, seg, s)
+            t = _catmull_rom(T, seg, s)
+            d = _unit(t - o)
+            up = (1 - s) * U[seg] + s * U[seg + 1]
+            up = up - np.dot(up, d) * d
+            if np.linalg.norm(up) < 1e-3 and prev_up is not None:
+                up = _transport(prev_up, prev_d, d)
+                up = up - np.dot(up, d) * d
+            up = _unit(up)
+            if prev_up is not None and np.dot(up, prev_up) < 0:  # never a flip
+                up = _unit(_transport(prev_up, prev_d, d))
+            fov = (1 - s) * a.fov + s * b.fov
+            time = (1 - s) * a.time + s * b.time
+            out.append(PathCamera(o, t, up, fov, time))
+            prev_up, prev_d = up, d
+    return out
+
+
+def angular_steps(cameras: Sequence[PathCamera], centre: Sequence[float] | None = None) -> dict:
+    """Per-frame changes of a path, in degrees: ``view`` (angle between consecutive view
+    directions), ``speed`` (angle the camera moves by as seen from ``centre``, default each
+    frame's target) and ``turn`` (change of the direction of motion on the sphere about
+    ``centre``)."""
+    D = np.array([c.direction for c in cameras])
+    view = np.degrees(np.arccos(np.clip(np.sum(D[1:] * D[:-1], axis=1), -1, 1)))
+    C = (
+        np.array([c.target for c in cameras])
+        if centre is None
+        else np.broadcast_to(np.asarray(centre, np.float64), (len(cameras), 3))
+    )
+    R = _unit(np.array([c.origin for c in cameras]) - C)
+    speed = np.degrees(np.arccos(np.clip(np.sum(R[1:] * R[:-1], axis=1), -1, 1)))
+    turn = []
+    for i in range(1, len(R) - 1):
+        h0 = _heading(R[i - 1], R[i])
+        h1 = _heading(R[i], R[i + 1])
+        if h0 is None or h1 is None:
+            turn.append(0.0)
+            continue
+        h0 = _unit(_transport(h0, R[i - 1], R[i]))
+        turn.append(math.degrees(math.acos(float(np.clip(np.dot(h0, h1), -1, 1)))))
+    return {"view": view, "speed": speed, "turn": np.array(turn)}
+
+
+def _heading(a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """The unit tangent at ``a`` of the great circle from ``a`` towards ``b``."""
+    h = b - np.dot(a, b) * a
+    n = np.linalg.norm(h)
+    return h / n if n > 1e-12 else None
+
+
+# -------------------------------------------------------------------------------- exploration
+
+
+@dataclass(frozen=True)
+class Exploration:
+    """What :func:`explore` found: the path, the quality of every frame's view (the measure of
+    ``measure`` at the viewing sphere's ID-buffer resolution) and the candidate views."""
+
+    cameras: list[PathCamera]
+    qualities: np.ndarray
+    candidates: np.ndarray
+    candidate_qualities: np.ndarray
+    goals: list[int]
+    measure: str
+
+
+def explore(
+    scene: SceneLike,
+    frames: int,
+    measure: str = "entropy",
+    *,
+    max_speed: float = 4.0,
+    max_turn: float = 12.0,
+    samples: int = 96,
+    res: int = 48,
+    max_elevation: float = 75.0,
+    visit_radius: float = 25.0,
+    sensor: int = 0,
+    ignore: Sequence[str] = (),
+    result: bool = False,
+) -> list[PathCamera] | Exploration:
+    """The paper's automatic exploration (section 2.1, last paragraph): a camera path on the
+    viewing sphere through good viewpoints, without brusque changes.
+
+    **How the path is chosen.** The viewing sphere is that of best view
+    (:func:`mi_npr.viewpoint.viewing`: centred on the scene's bounding sphere, radius framing
+    the whole scene at the sensor's ``fov``, viewpoints on the allowed side of the up axis).
+    ``samples`` Fibonacci directions on it, up to ``max_elevation`` degrees above the horizon
+    (a camera looking straight down its ``up`` has no defined roll), are rated by ``measure``
+    (eq. 1 ``pb``, eq. 2 ``curvature`` or eq. 3 ``entropy``) in batched ID-buffer launches
+    (:meth:`~mi_npr.viewpoint.search.Viewing.rate`, ``res`` pixels). The camera starts at the
+    best candidate. It then steers, one frame at a time, towards a *goal*: the unvisited
+    candidate maximising ``q / q_max - angle / 180`` (quality against the arc still to fly,
+    both in [0, 1]). Candidates within ``visit_radius`` degrees of the camera count as visited
+    when it passes them, so the path moves on from a good region to the next one instead of
+    circling; the goal is reached when the camera is within one step of it, and a new one is
+    picked (when all are visited, the visits are forgotten).
+
+    **No brusque change**, bounded per frame and checked by :func:`angular_steps`:
+
+    - *angular speed*: the camera moves along the sphere by at most ``max_speed`` degrees per
+      frame (as seen from the sphere's centre; it always looks at the centre, so the view
+      direction turns by the same angle), slowing down to land on the goal;
+    - *turning*: the direction of motion on the sphere (the great-circle heading) changes by
+      at most ``max_turn`` degrees per frame, so a new goal behind the camera gives a smooth
+      U-turn, never a reversal.
+
+    Returns the cameras, or with ``result=True`` an :class:`Exploration` with the qualities of
+    every frame's view (rated like the candidates).
+    """
+    from .viewpoint.measures import check_measure
+    from .viewpoint.search import sample_sphere, viewing
+
+    frames = check_frames(frames)
+    check_measure(measure)
+    for name, v, hi in (
+        ("max_speed", max_speed, 180.0),
+        ("max_turn", max_turn, 180.0),
+        ("max_elevation", max_elevation, 90.0),
+        ("visit_radius", visit_radius, 180.0),
+    ):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= hi:
+            raise ParameterError(f"{name} = {v!r}: must be in (0, {hi:g}] degrees")
+    if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 4096:
+        raise ParameterError(f"samples = {samples!r}: must be in [1, 4096]")
+    s = load_scene(scene)
+    view = viewing(s, res=res, sensor=sensor, ignore=ignore)
+    up = np.asarray(view.up, np.float64)
+    dirs, q = sample_sphere(s, view, measure, max(samples * 2, 8))
+    elev = np.degrees(np.arcsin(np.clip(dirs @ up, -1, 1)))
+    keep = view.allowed(dirs) & (elev <= max_elevation)
+    if not keep.any():
+        raise ParameterError("explore: no allowed viewpoint (max_elevation too low?)")
+    dirs, q = dirs[keep], np.nan_to_num(q[keep])
+    qmax = float(q.max()) if q.max() > 0 else 1.0
+
+    speed, turn = math.radians(max_speed), math.radians(max_turn)
+    radius_v = math.radians(visit_radius)
+    pos = dirs[int(np.argmax(q))].copy()
+    visited = np.zeros(len(dirs), dtype=bool)
+    heading: np.ndarray | None = None
+    goal = None
+    goals: list[int] = []
+    path = [pos.copy()]
+
+    def arc(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.arccos(np.clip(b @ a, -1.0, 1.0))
+
+    def pick() -> int:
+        if visited.all():
+            visited[:] = False
+        score = q / qmax - arc(pos, dirs) / math.pi
+        score[visited] = -np.inf
+        return int(np.argmax(score))
+
+    while len(path) < frames:
+        visited |= arc(pos, dirs) <= radius_v
+        if goal is None or arc(pos, dirs[goal][None])[0] <= 1e-6:
+            goal = pick()
+            goals.append(goal)
+        want = _heading(pos, dirs[goal])
+        if want is None:  # on the goal already
+            goal = None
+            path.append(pos.copy())
+            continue
+        if heading is None:
+            heading = want
+        else:  # turn towards the goal by at most max_turn
+            cosang = float(np.clip(np.dot(heading, want), -1.0, 1.0))
+            ang = math.acos(cosang)
+            if ang > turn:
+                axis = pos  # rotate the heading about the position (the sphere's normal)
+                side = 1.0 if np.dot(np.cross(heading, want), axis) >= 0 else -1.0
+                heading = _unit(_rotate(heading, axis, side * turn))
+            else:
+                heading = want
+        step = min(speed, float(arc(pos, dirs[goal][None])[0]))
+        new = math.cos(step) * pos + math.sin(step) * heading
+        h = up * max(0.0, -float(np.dot(new, up)))  # stay on the allowed side
+        new = _unit(new + h) if not view.allow_below else _unit(new)
+        heading = _heading(new, new + (new - pos)) if step > 0 else heading
+        pos = new
+        path.append(pos.copy())
+
+    P = np.array(path)
+    origins = view.origins(P)
+    times = _times(frames)
+    cams = [PathCamera(o, view.target, up, view.fov, times[i]) for i, o in enumerate(origins)]
+    if not result:
+        return cams
+    qual = view.qualities(s, origins, measure)
+    return Exploration(cams, qual, dirs, q, goals, measure)
+
+
+def make_path(
+    scene: SceneLike,
+    frames: int,
+    *,
+    explore_measure: str | None = None,
+    keys: str | os.PathLike[str] | Sequence[PathCamera] | None = None,
+    degrees: float = 360.0,
+    max_speed: float = 4.0,
+    max_turn: float = 12.0,
+    explore_ignore: Sequence[str] = (),
+) -> list[PathCamera]:
+    """The path of ``mi-npr path``: :func:`explore` with ``explore_measure`` (objects named in
+    ``explore_ignore`` count as background), :func:`through` the keyframes ``keys`` (cameras or
+    a JSON file of them), else an :func:`orbit`."""
+    if explore_measure is not None and keys is not None:
+        raise ParameterError("explore and keys: give one of them")
+    if explore_measure is not None:
+        return explore(
+            scene,
+            frames,
+            explore_measure,
+            max_speed=max_speed,
+            max_turn=max_turn,
+            ignore=explore_ignore,
+        )
+    if keys is not None:
+        cams = keys if isinstance(keys, Sequence) and not isinstance(keys, str) else None
+        return through(cams if cams is not None else read_cameras(keys), frames)
+    return orbit(scene, frames, degrees)
+
+
+def path_qualities(
+    scene: SceneLike, cameras: Sequence[PathCamera], measure: str = "entropy", res: int = 48
+) -> np.ndarray:
+    """The quality (eq. 1, 2 or 3) of every camera's view at the viewing sphere's distance
+    (:func:`mi_npr.viewpoint.viewing`): for comparing paths of different radii."""
+    from .viewpoint.search import viewing
+
+    s = load_scene(scene)
+    view = viewing(s, res=res)
+    d = np.array([np.subtract(c.origin, view.target) for c in cameras])
+    return view.qualities(s, view.origins(d), measure)
+
+
+# ---------------------------------------------------------------------------------- rendering
+
+
+def sensor_for(camera: PathCamera, like: mi.Sensor) -> mi.Sensor:
+    """A perspective sensor at ``camera`` with the film, sampler (and so the reconstruction
+    filter and sample count) and clip planes of the sensor ``like``."""
+    params = mi.traverse(like)
+
+    def scalar(key: str, default: float) -> float:
+        return float(np.asarray(params[key]).ravel()[0]) if key in params else default
+
+    return mi.load_dict(
+        {
+            "type": "perspective",
+            "fov": camera.fov,
+            "fov_axis": "x",
+            "near_clip": scalar("near_clip", 1e-2),
+            "far_clip": scalar("far_clip", 1e4),
+            "to_world": camera.transform(),
+            "film": like.film(),
+            "sampler": like.sampler(),
+        }
+    )
+
+
+@dataclass
+class Frames:
+    """What :func:`render_frames` wrote and measured."""
+
+    files: list[Path]
+    #: the frames kept for :func:`mi_npr.coherence.popping` (``P``, ``Z``, the line layers)
+    gbuffers: list
+    coherence: dict | None = None
+    videos: list[Path] | None = None
+
+
+#: Layers kept per frame for the coherence measure.
+def _kept_layers() -> tuple[str, ...]:
+    from . import layers as L
+
+    return (L.Z, *L.P, L.LINES, L.CONTOUR)
+
+
+def render_frames(
+    scene: SceneLike,
+    cameras: Sequence[PathCamera],
+    out: str | os.PathLike[str],
+    drawings: Sequence[str] = (),
+    params: Mapping[str, Any] | None = None,
+    *,
+    resolution: tuple[int | None, int | None] | None = None,
+    spp: int | str | None = None,
+    seed: int = 0,
+    defines: Mapping[str, Any] | None = None,
+    video: str | None = None,
+    fps: int = 24,
+    variants: bool = False,
+    progress: bool = False,
+    on_frame: Callable[[int, Any], None] | None = None,
+) -> Frames:
+    """Render every camera of a path into ``out`` (the ONE place frames are rendered; the batch
+    engine will take the frames as jobs here).
+
+    The scene is loaded once (:class:`~mi_npr.session.SceneSession`: ``resolution``, ``spp``,
+    ``defines``); frame ``i`` is :func:`mi_npr.pipeline.render_layers` of that scene seen by
+    :func:`sensor_for` of camera ``i``, written by :func:`mi_npr.io.write_layered_outputs` as
+    ``frame_%04d.exr``, ``frame_%04d.png`` and each drawing's PNG/SVG. Then ``path.json`` (the
+    cameras), ``coherence.json`` (:func:`mi_npr.coherence.popping` of the ``lines`` layer, or
+    the ``contour`` layer without lines) and, with ``video`` (``"mp4"`` or ``"gif"``), the
+    videos ``beauty.<fmt>`` (the beauty with the lines) and ``contours.<fmt>`` (the contour
+    overlay, with ``contours`` on) through :func:`mi_npr.io.frames.write_video`. With
+    ``variants``, ``coherence.json`` also holds the popping of the four line variants of the
+    thesis's claim (:func:`mi_npr.coherence.line_variants`) and the plot draws them.
+    """
+    from . import layers as L
+    from .coherence import line_variants, popping
+    from .gbuffer import GBuffer
+    from .io import write_layered_outputs, write_text
+    from .io.frames import check_format, frame_image, write_coherence, write_video
+    from .pipeline import render_layers
+    from .session import SceneSession
+
+    cams = list(cameras)
+    if not cams:
+        raise ParameterError("render_frames: no cameras")
+    if video is not None:
+        check_format(video)
+    outdir = Path(out)
+    outdir.mkdir(parents=True, exist_ok=True)
+    session = SceneSession.open(scene, spp=spp, defines=defines, resolution=resolution)
+    files: list[Path] = []
+    kept: list = []
+    movie: dict[str, list[np.ndarray]] = {"beauty": [], "contours": []}
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(cams), desc="frames", unit="frame", leave=False)
+    for i, cam in enumerate(cams):
+        sensor = sensor_for(cam, session.sensor)
+        r = render_layers(
+            session.scene, drawings, params, sensor=sensor, spp=session.spp, seed=seed
+        )
+        files += write_layered_outputs(r, outdir, f"frame_{i:04d}")
+        gb = r.gbuffer
+        kept.append(GBuffer({n: gb[n] for n in _kept_layers() if n in gb}, camera=gb.camera))
+        if video is not None:
+            movie["beauty"].append(frame_image(gb.beauty))
+            if "contours" in r.pictures:
+                movie["contours"].append(frame_image(r.pictures["contours"]))
+        if on_frame is not None:
+            on_frame(i, r)
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    files.append(write_text(outdir / "path.json", to_json(cams)))
+    layer = L.LINES if L.LINES in kept[0] else L.CONTOUR if L.CONTOUR in kept[0] else None
+    coherence = None
+    curves = line_variants(kept) if variants else None
+    if layer is not None:
+        coherence = popping(kept, layer=layer)
+    elif curves:
+        coherence = {"layer": None, "overall": None}
+    if coherence is not None:
+        files += write_coherence(coherence, outdir, curves)
+        coherence = {**coherence, "variants": curves} if curves else coherence
+    videos = []
+    if video is not None:
+        for name, images in movie.items():
+            if images:
+                videos.append(write_video(outdir / f"{name}.{video}", images, fps=fps))
+    files += videos
+    return Frames(files, kept, coherence, videos)
+
+
+def render_path(
+    scene: SceneLike,
+    out: str | os.PathLike[str],
+    frames: int,
+    drawings: Sequence[str] = (),
+    params: Mapping[str, Any] | None = None,
+    *,
+    explore_measure: str | None = None,
+    keys: str | os.PathLike[str] | Sequence[PathCamera] | None = None,
+    degrees: float = 360.0,
+    max_speed: float = 4.0,
+    max_turn: float = 12.0,
+    explore_ignore: Sequence[str] = (),
+    resolution: tuple[int | None, int | None] | None = None,
+    spp: int | str | None = None,
+    defines: Mapping[str, Any] | None = None,
+    **options: Any,
+) -> Frames:
+    """``mi-npr path``: load ``scene`` once (``resolution``, ``spp``, ``defines``), build its
+    path (:func:`make_path`) and render it (:func:`render_frames`, ``options``)."""
+    from .session import SceneSession
+
+    session = SceneSession.open(scene, spp=spp, defines=defines, resolution=resolution)
+    cams = make_path(
+        session.scene,
+        frames,
+        explore_measure=explore_measure,
+        keys=keys,
+        degrees=degrees,
+        max_speed=max_speed,
+        max_turn=max_turn,
+        explore_ignore=explore_ignore,
+    )
+    return render_frames(session.scene, cams, out, drawings, params, spp=session.spp, **options)
