@@ -158,6 +158,8 @@ class BatchSettings:
     threads: int | None = None
     line_color: tuple[float, ...] | None = None
     paper: tuple[float, ...] | None = None
+    #: outputs in ``outdir`` itself, not ``outdir/<scene stem>`` (one scene: a camera path)
+    flat: bool = False
 
     def flags(self) -> dict[str, Any]:
         """What makes two renders of a job equal (compared by ``resume``), JSON-ready."""
@@ -268,7 +270,7 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
                 spp=session.spp,
                 seed=settings.seed,
             )
-            outdir = Path(settings.outdir) / job.stem
+            outdir = Path(settings.outdir) / ("" if settings.flat else job.stem)
             written = io.write_layered_outputs(
                 result, outdir, job.view, line_color=settings.line_color, paper=settings.paper
             )
@@ -353,12 +355,15 @@ def run(
     progress: bool = True,
     line_color: Sequence[float] | None = None,
     paper: Sequence[float] | None = None,
+    flat: bool = False,
 ) -> list[dict[str, Any]]:
     """Render every scene of ``scenes`` from every view of ``views`` (module docstring) into
     ``out``; the manifest rows of all jobs, in job order (a job skipped by ``resume``: its
     earlier row).
 
-    ``client``: a ``distributed.Client`` to run on; else ``scheduler`` (an address) to connect
+    ``flat`` writes one scene's views into ``out`` itself (``out/<view id>.exr``; the camera
+    paths of :mod:`mi_npr.paths`). ``client``: a ``distributed.Client`` to run on; else
+    ``scheduler`` (an address) to connect
     to; else a ``LocalCluster`` of ``workers`` processes (default: one per core, at most one per
     job) started and closed here; ``workers=0`` renders in this process, without Dask.
 
@@ -399,7 +404,10 @@ def run(
         threads=threads_per_worker,
         line_color=tuple(float(v) for v in line_color) if line_color else None,
         paper=tuple(float(v) for v in paper) if paper else None,
+        flat=flat,
     )
+    if flat and len({j.scene for j in jobs}) > 1:
+        raise ParameterError("flat outputs are for one scene (its views' files would collide)")
     manifest = outdir / MANIFEST
     flags = settings.flags()
     rows: dict[str, dict[str, Any]] = {}

@@ -177,6 +177,40 @@ def _param_type(param: object, plugin: str) -> object:
 _REPEATABLE = ("only", "ignore")
 
 
+def _cluster_arguments(cmd: argparse.ArgumentParser, name: str) -> None:
+    """``--workers``, ``--threads-per-worker``, ``--scheduler``, ``--resume``, ``--retries``:
+    where the jobs of ``mi-npr batch`` (and the frames of ``mi-npr path``) run."""
+    cmd.add_argument(
+        "--workers",
+        type=cli_type(name, "--workers"),
+        metavar="N",
+        help="worker processes of the local cluster (default: one per core; 0: this process)",
+    )
+    cmd.add_argument(
+        "--threads-per-worker",
+        type=cli_type(name, "--threads-per-worker"),
+        metavar="K",
+        help="Dr.Jit threads of each worker (default: the cores shared out)",
+    )
+    cmd.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="a running Dask scheduler, e.g. tcp://10.0.0.1:8786 (OUT must be shared storage)",
+    )
+    cmd.add_argument(
+        "--resume",
+        action="store_true",
+        help="skip the jobs OUT/manifest.jsonl shows done with the same scene and flags",
+    )
+    cmd.add_argument(
+        "--retries",
+        type=cli_type(name, "--retries"),
+        default=0,
+        metavar="R",
+        help="retries of a failed job (default 0)",
+    )
+
+
 def _layer_arguments(cmd: argparse.ArgumentParser, layers: Sequence[str]) -> None:
     """One flag per plugin parameter of ``layers`` (``--crease-angle`` for ``crease_angle``),
     generated from the plugins' PARAMS tables: a name several plugins share is one flag that
@@ -305,35 +339,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="R,G,B",
         help="paper colour of <view>_lines.png (linear RGB, default white 1,1,1)",
     )
-    bt.add_argument(
-        "--workers",
-        type=cli_type("batch", "--workers"),
-        metavar="N",
-        help="worker processes of the local cluster (default: one per core; 0: this process)",
-    )
-    bt.add_argument(
-        "--threads-per-worker",
-        type=cli_type("batch", "--threads-per-worker"),
-        metavar="K",
-        help="Dr.Jit threads of each worker (default: the cores shared out)",
-    )
-    bt.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="a running Dask scheduler, e.g. tcp://10.0.0.1:8786 (OUT must be shared storage)",
-    )
-    bt.add_argument(
-        "--resume",
-        action="store_true",
-        help="skip the jobs OUT/manifest.jsonl shows done with the same scene and flags",
-    )
-    bt.add_argument(
-        "--retries",
-        type=cli_type("batch", "--retries"),
-        default=0,
-        metavar="R",
-        help="retries of a failed job (default 0)",
-    )
+    _cluster_arguments(bt, "batch")
     _layer_arguments(bt, ("lines", "contours", "raytree"))
 
     b = sub.add_parser(
@@ -458,6 +464,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     a.add_argument("--no-progress", action="store_true", help="no progress bar")
     _memory_argument(a)
+    _cluster_arguments(a, "path")
     _layer_arguments(a, ("lines", "contours", "raytree"))
 
     f = sub.add_parser("foliage", help="turn a plant (PLY/OBJ) into a foliage scene in a style")
@@ -680,6 +687,19 @@ def _cmd_best_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cluster(args: argparse.Namespace) -> dict | None:
+    """``mi-npr path``'s frames as batch jobs when a cluster option is given, else ``None``."""
+    given = {
+        "workers": args.workers,
+        "threads_per_worker": args.threads_per_worker,
+        "scheduler": args.scheduler,
+    }
+    given = {k: v for k, v in given.items() if v is not None}
+    if not given and not args.resume and not args.retries:
+        return None
+    return {**given, "resume": args.resume, "retries": args.retries}
+
+
 def _cmd_path(args: argparse.Namespace) -> int:
     import mi_npr
 
@@ -708,6 +728,7 @@ def _cmd_path(args: argparse.Namespace) -> int:
         fps=args.fps,
         variants=args.variants,
         progress=not args.no_progress and sys.stderr.isatty(),
+        cluster=_cluster(args),
     )
     c = result.coherence
     print(f"{_t(args.scene)}: {args.frames} frames in {_t(outdir)}")

@@ -222,6 +222,19 @@ _SIZE = (
     Param("--height", int, None, "film height", integer_range(1, MAX_RES)),
 )
 
+#: Where the jobs of mi-npr batch and the frames of mi-npr path run (Dask).
+_CLUSTER = (
+    Param("--workers", int, None, "worker processes (0: this one)", integer_range(0, MAX_WORKERS)),
+    Param(
+        "--threads-per-worker",
+        int,
+        None,
+        "Dr.Jit threads per worker",
+        integer_range(1, MAX_THREADS),
+    ),
+    Param("--retries", int, 0, "retries of a failed job", integer_range(0, MAX_RETRIES)),
+)
+
 CLI_PARAMS: dict[str, tuple[Param, ...]] = {
     "render": (
         *_SIZE,
@@ -249,17 +262,7 @@ CLI_PARAMS: dict[str, tuple[Param, ...]] = {
         *_SIZE,
         Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
         Param("--seed", int, 0, "sampler seed", seed_rule),
-        Param(
-            "--workers", int, None, "worker processes (0: this one)", integer_range(0, MAX_WORKERS)
-        ),
-        Param(
-            "--threads-per-worker",
-            int,
-            None,
-            "Dr.Jit threads per worker",
-            integer_range(1, MAX_THREADS),
-        ),
-        Param("--retries", int, 0, "retries of a failed job", integer_range(0, MAX_RETRIES)),
+        *_CLUSTER,
     ),
     "path": (
         *_SIZE,
@@ -270,6 +273,7 @@ CLI_PARAMS: dict[str, tuple[Param, ...]] = {
         Param("--degrees", float, 360.0, "orbit angle", real_range(0.0, 3600.0, open_lo=True)),
         Param("--max-speed", float, 4.0, "degrees per frame", real_range(0.0, 180.0, open_lo=True)),
         Param("--max-turn", float, 12.0, "degrees per frame", real_range(0.0, 180.0, open_lo=True)),
+        *_CLUSTER,
     ),
     "foliage": (
         Param("--leaf-size", float, None, "leaf length", real_range(0.0, 1e6, open_lo=True)),

@@ -536,24 +536,11 @@ def path_qualities(
 
 def sensor_for(camera: PathCamera, like: mi.Sensor) -> mi.Sensor:
     """A perspective sensor at ``camera`` with the film, sampler (and so the reconstruction
-    filter and sample count) and clip planes of the sensor ``like``."""
-    params = mi.traverse(like)
+    filter and sample count) and clip planes of the sensor ``like``
+    (:func:`mi_npr.scene.sensor_at`, the cameras of batch views too)."""
+    from .scene import sensor_at
 
-    def scalar(key: str, default: float) -> float:
-        return float(np.asarray(params[key]).ravel()[0]) if key in params else default
-
-    return mi.load_dict(
-        {
-            "type": "perspective",
-            "fov": camera.fov,
-            "fov_axis": "x",
-            "near_clip": scalar("near_clip", 1e-2),
-            "far_clip": scalar("far_clip", 1e4),
-            "to_world": camera.transform(),
-            "film": like.film(),
-            "sampler": like.sampler(),
-        }
-    )
+    return sensor_at(like, camera.origin, camera.target, camera.up, camera.fov)
 
 
 @dataclass
@@ -590,6 +577,7 @@ def render_frames(
     variants: bool = False,
     progress: bool = False,
     on_frame: Callable[[int, Any], None] | None = None,
+    cluster: Mapping[str, Any] | None = None,
 ) -> Frames:
     """Render every camera of a path into ``out`` (the ONE place frames are rendered; the batch
     engine will take the frames as jobs here).
@@ -604,11 +592,19 @@ def render_frames(
     overlay, with ``contours`` on) through :func:`mi_npr.io.frames.write_video`. With
     ``variants``, ``coherence.json`` also holds the popping of the four line variants of the
     thesis's claim (:func:`mi_npr.coherence.line_variants`) and the plot draws them.
+
+    ``cluster`` (``workers``, ``threads_per_worker``, ``scheduler``, ``client``, ``resume``,
+    ``retries``: :func:`mi_npr.batch.run`'s) makes every frame a batch job on Dask instead:
+    ``scene`` must then be an XML path; the frames are the same files (plus the batch's
+    ``manifest.jsonl``, so ``resume`` skips finished frames), read back for the coherence
+    measure and the videos.
     """
+    from PIL import Image
+
     from . import layers as L
     from .coherence import line_variants, popping
     from .gbuffer import GBuffer
-    from .io import write_layered_outputs, write_text
+    from .io import read_exr, write_layered_outputs, write_text
     from .io.frames import check_format, frame_image, write_coherence, write_video
     from .pipeline import render_layers
     from .session import SceneSession
@@ -620,16 +616,36 @@ def render_frames(
         check_format(video)
     outdir = Path(out)
     outdir.mkdir(parents=True, exist_ok=True)
-    session = SceneSession.open(scene, spp=spp, defines=defines, resolution=resolution)
     files: list[Path] = []
     kept: list = []
     movie: dict[str, list[np.ndarray]] = {"beauty": [], "contours": []}
+    if cluster is not None:
+        files += _frames_as_jobs(
+            scene, cams, outdir, drawings, params, resolution, spp, seed, defines, cluster, progress
+        )
+        for i in range(len(cams)):
+            gb = read_exr(outdir / f"frame_{i:04d}.exr")
+            kept.append(GBuffer({n: gb[n] for n in _kept_layers() if n in gb}, camera=gb.camera))
+            if video is not None:
+                movie["beauty"].append(frame_image(gb.beauty))
+                png = outdir / f"frame_{i:04d}_contours.png"
+                if png.is_file():
+                    movie["contours"].append(np.asarray(Image.open(png).convert("RGB")))
+        cams_left: list[PathCamera] = []
+    else:
+        cams_left = cams
+    session = (
+        None
+        if cluster is not None
+        else SceneSession.open(scene, spp=spp, defines=defines, resolution=resolution)
+    )
     bar = None
-    if progress:
+    if progress and cams_left:
         from tqdm import tqdm
 
         bar = tqdm(total=len(cams), desc="frames", unit="frame", leave=False)
-    for i, cam in enumerate(cams):
+    for i, cam in enumerate(cams_left):
+        assert session is not None
         sensor = sensor_for(cam, session.sensor)
         r = render_layers(
             session.scene, drawings, params, sensor=sensor, spp=session.spp, seed=seed
@@ -667,6 +683,60 @@ def render_frames(
     return Frames(files, kept, coherence, videos)
 
 
+def _frames_as_jobs(
+    scene: SceneLike,
+    cams: Sequence[PathCamera],
+    outdir: Path,
+    drawings: Sequence[str],
+    params: Mapping[str, Any] | None,
+    resolution: tuple[int | None, int | None] | None,
+    spp: int | str | None,
+    seed: int,
+    defines: Mapping[str, Any] | None,
+    cluster: Mapping[str, Any],
+    progress: bool,
+) -> list[Path]:
+    """Every frame a job of :func:`mi_npr.batch.run` (``frame_%04d``, written flat into
+    ``outdir``); the files written, or one :class:`~mi_npr.errors.SceneError` line naming the
+    first frame that failed."""
+    from .batch import run
+    from .errors import SceneError
+    from .io import write_text
+
+    if not isinstance(scene, (str, os.PathLike)):
+        raise ParameterError("frames as batch jobs: give the scene as an XML path")
+    keys = write_text(
+        outdir / "frames.json",
+        json.dumps([{"id": f"frame_{i:04d}", **c.to_dict()} for i, c in enumerate(cams)]),
+    )
+    w, h = resolution if resolution is not None else (None, None)
+    allowed = {"workers", "threads_per_worker", "scheduler", "client", "resume", "retries"}
+    unknown = sorted(set(cluster) - allowed)
+    if unknown:
+        raise ParameterError(
+            f"cluster: unknown option {unknown[0]!r} ({', '.join(sorted(allowed))})"
+        )
+    rows = run(
+        [scene],
+        str(keys),
+        out=outdir,
+        drawings=drawings,
+        params=params,
+        width=w,
+        height=h,
+        spp=None if spp is None else int(spp),
+        seed=seed,
+        defines=defines,
+        progress=progress,
+        flat=True,
+        **cluster,
+    )
+    failed = [r for r in rows if r.get("status") != "done"]
+    if failed:
+        raise SceneError(f"{len(failed)} of {len(rows)} frames failed: {failed[0].get('error')}")
+    return [keys, *(outdir / p for r in rows for p in r["outputs"])]
+
+
 def render_path(
     scene: SceneLike,
     out: str | os.PathLike[str],
@@ -700,4 +770,9 @@ def render_path(
         max_turn=max_turn,
         explore_ignore=explore_ignore,
     )
+    if options.get("cluster") is not None:  # frames as batch jobs: the workers load the file
+        return render_frames(
+            scene, cams, out, drawings, params, resolution=resolution, spp=spp, defines=defines,
+            **options,
+        )  # fmt: skip
     return render_frames(session.scene, cams, out, drawings, params, spp=session.spp, **options)

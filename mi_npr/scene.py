@@ -145,6 +145,39 @@ def camera_of(sensor: mi.Sensor) -> Camera:
     return Camera(m, (int(w), int(h)), fov, kind, near, far)
 
 
+def sensor_at(
+    like: mi.Sensor,
+    origin: Any,
+    target: Any,
+    up: Any = (0.0, 1.0, 0.0),
+    fov: float | None = None,
+) -> mi.Sensor:
+    """A ``perspective`` sensor at ``lookat(origin, target, up)`` with the horizontal field of
+    view ``fov`` in degrees (``None``: ``like``'s) and the film size, reconstruction filter,
+    sampler (a clone: same type, sample count and seed) and clip planes of the sensor ``like``:
+    the camera of a batch view or of a camera path, built with ``mi.load_dict``."""
+    params = mi.traverse(like)
+    if fov is None:
+        fov = _scalar(params["x_fov"]) if "x_fov" in params else 45.0
+    w, h = (int(v) for v in like.film().size())
+    d: dict[str, Any] = {
+        "type": "perspective",
+        "fov": float(fov),
+        "fov_axis": "x",
+        "to_world": mi.ScalarTransform4f().look_at(
+            origin=[float(v) for v in origin],
+            target=[float(v) for v in target],
+            up=[float(v) for v in up],
+        ),
+        "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": like.film().rfilter()},
+        "sampler": like.sampler().clone(),
+    }
+    for key in ("near_clip", "far_clip"):
+        if key in params:
+            d[key] = _scalar(params[key])
+    return mi.load_dict(d)
+
+
 def shape_bbox(shape: mi.Shape) -> np.ndarray:
     """A shape's world bounding box as a float64 (2, 3) array: ``[min, max]``."""
     bb = shape.bbox()

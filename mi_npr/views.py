@@ -104,10 +104,11 @@ def _vec3(where: str, name: str, value: Any) -> tuple[float, float, float]:
 def _camera(where: str, item: Any) -> CameraSpec:
     if not isinstance(item, dict):
         raise ParameterError(f"{where}: expected an object with origin, target, up, fov")
-    unknown = sorted(set(item) - {"id", "origin", "target", "up", "fov"})
+    # "time": a camera path's (mi-npr path writes path.json in this format), not used here
+    unknown = sorted(set(item) - {"id", "origin", "target", "up", "fov", "time"})
     if unknown:
         raise ParameterError(
-            f"{where}: unknown key {unknown[0]!r} (keys: id, origin, target, up, fov)"
+            f"{where}: unknown key {unknown[0]!r} (keys: id, origin, target, up, fov, time)"
         )
     for key in ("origin", "target"):
         if key not in item:
@@ -320,26 +321,8 @@ def cameras(spec: ViewSpec, scene: Any, sensor: Any) -> list[tuple[str, CameraSp
 
 def sensor_for(camera: CameraSpec, like: Any) -> Any:
     """A ``perspective`` sensor at ``camera`` with the film size, reconstruction filter,
-    sampler, clip planes (and fov, when the camera has none) of the sensor ``like``, built
-    with ``mi.load_dict``."""
-    import mitsuba as mi
+    sampler, clip planes (and fov, when the camera has none) of the sensor ``like``
+    (:func:`mi_npr.scene.sensor_at`)."""
+    from .scene import sensor_at
 
-    params = mi.traverse(like)
-    fov = camera.fov
-    if fov is None:
-        fov = float(np.asarray(params["x_fov"]).ravel()[0]) if "x_fov" in params else 45.0
-    w, h = (int(v) for v in like.film().size())
-    d: dict[str, Any] = {
-        "type": "perspective",
-        "fov": float(fov),
-        "fov_axis": "x",
-        "to_world": mi.ScalarTransform4f().look_at(
-            origin=list(camera.origin), target=list(camera.target), up=list(camera.up)
-        ),
-        "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": like.film().rfilter()},
-        "sampler": like.sampler().clone(),
-    }
-    for key in ("near_clip", "far_clip"):
-        if key in params:
-            d[key] = float(np.asarray(params[key]).ravel()[0])
-    return mi.load_dict(d)
+    return sensor_at(like, camera.origin, camera.target, camera.up, camera.fov)
