@@ -13,12 +13,11 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
-# Scene 1 of the paper: G-buffer + depth lines in out/, apparent contours (PNG, SVG) in
-# out/contours/, classified ray-tree edges in out/raytree/.
+# Scene 1 of the paper, every drawing in one render: out/scene1.exr (every layer), the beauty
+# with depth lines (scene1.png), the lines alone (scene1_lines.png/.svg), the apparent contours
+# (scene1_contours.png/.svg) and the classified ray-tree edges (scene1_raytree.png/.svg).
 demo: $(STAMP)
-	$(VENV)/bin/mi-npr render scenes_xml/scene1.xml -o out -D integrator=npr_lines
-	$(VENV)/bin/mi-npr contours scenes_xml/scene1.xml -o out/contours
-	$(VENV)/bin/mi-npr raytree scenes_xml/scene1.xml -o out/raytree
+	$(VENV)/bin/mi-npr render scenes_xml/scene1.xml -o out --lines --contours --raytree
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
