@@ -234,15 +234,9 @@ def _scene(settings: BatchSettings, job: Job) -> tuple[Any, dict[str, Any]]:
     return session, cams
 
 
-def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str, Any]:
-    """Render and write one job; its manifest row (``status`` ``done`` or ``failed`` with a
-    one-line ``error``). Runs on a worker; never raises for a failing job."""
-    from . import io
-    from .pipeline import render_layers
-    from .views import sensor_camera, sensor_for
-
-    t0 = time.perf_counter()
-    row: dict[str, Any] = {
+def _row(settings: BatchSettings, job: Job, attempt: int, **fields: Any) -> dict[str, Any]:
+    """A manifest row of ``job``, failed until a render fills it in (``fields`` override)."""
+    return {
         "job": job.id,
         "scene": job.scene,
         "scene_hash": job.scene_hash,
@@ -253,8 +247,20 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
         "status": "failed",
         "error": None,
         "attempt": attempt,
-        "worker": _worker_name(),
+        "worker": None,
+        **fields,
     }
+
+
+def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str, Any]:
+    """Render and write one job; its manifest row (``status`` ``done`` or ``failed`` with a
+    one-line ``error``). Runs on a worker; never raises for a failing job."""
+    from . import io
+    from .pipeline import render_layers
+    from .views import sensor_camera, sensor_for
+
+    t0 = time.perf_counter()
+    row = _row(settings, job, attempt, worker=_worker_name())
     with _JOB_LOCK:
         try:
             _configure(settings)
@@ -540,20 +546,13 @@ def _run_dask(
             try:
                 row = fut.result()
             except Exception as e:  # the worker died (KilledWorker), the task could not run
-                row = {
-                    "job": job.id,
-                    "scene": job.scene,
-                    "scene_hash": job.scene_hash,
-                    "view": job.view,
-                    "camera": None,
-                    "flags": settings.flags(),
-                    "outputs": [],
-                    "status": "failed",
-                    "error": f"{job.id}: {type(e).__name__}: {one_line(e)}",
-                    "attempt": attempt,
-                    "worker": None,
-                    "seconds": None,
-                }
+                row = _row(
+                    settings,
+                    job,
+                    attempt,
+                    error=f"{job.id}: {type(e).__name__}: {one_line(e)}",
+                    seconds=None,
+                )
             fut.release()
             if row["status"] != "done" and attempt <= retries:
                 futures.add(submit(job, attempt + 1, len(jobs)))
