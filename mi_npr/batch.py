@@ -33,7 +33,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import NprError, ParameterError, one_line
+import numpy as np
+
+from .errors import NprError, ParameterError, for_terminal, one_line
 
 
 @dataclass
@@ -252,6 +254,16 @@ def _row(settings: BatchSettings, job: Job, attempt: int, **fields: Any) -> dict
     }
 
 
+def _view_warning(job: Job, gb: Any) -> str | None:
+    """Best view's test of a view not worth looking at (mostly background, or black: an orbit
+    around a room of one-sided walls sees their backs), as a one-line warning, or ``None``."""
+    from .compose import raw_beauty
+    from .viewpoint.outputs import view_warning
+
+    why = view_warning(float(np.mean(gb.object_id == 0)), raw_beauty(gb))
+    return None if why is None else f"{job.id}: the view is probably useless: {why}"
+
+
 def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str, Any]:
     """Render and write one job; its manifest row (``status`` ``done`` or ``failed`` with a
     one-line ``error``). Runs on a worker; never raises for a failing job."""
@@ -282,6 +294,7 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
             )
             row["outputs"] = [os.path.relpath(p, settings.outdir) for p in written]
             row["status"] = "done"
+            row["warning"] = _view_warning(job, result.gbuffer)
         except NprError as e:
             row["error"] = f"{job.id}: {one_line(e)}"
         except Exception as e:
@@ -433,9 +446,15 @@ def run(
     def record(row: dict[str, Any]) -> None:
         append_row(manifest, row)
         rows[row["job"]] = row
-        if bar is not None:
-            if row["status"] != "done":
-                bar.write(f"mi-npr: error: {row['error']}", file=sys.stderr)
+        if row["status"] != "done":
+            message = f"mi-npr: error: {row['error']}"
+        elif row.get("warning"):
+            message = f"mi-npr: warning: {row['warning']}"
+        else:
+            message = None
+        if bar is not None:  # without a bar, the caller reads the rows (the CLI prints them)
+            if message is not None:
+                bar.write(for_terminal(message), file=sys.stderr)
             bar.update(1)
 
     try:

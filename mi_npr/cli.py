@@ -644,8 +644,12 @@ def _cmd_batch(args: argparse.Namespace) -> int:
         paper=args.paper,
     )
     failed = [r for r in rows if r.get("status") != "done"]
-    for r in failed:
-        _fail(str(r.get("error")))
+    if args.no_progress:  # else the progress bar printed each line as its job ended
+        for r in failed:
+            _fail(str(r.get("error")))
+        for r in rows:
+            if r.get("warning"):
+                print(f"{PROG}: warning: {_t(r['warning'])}", file=sys.stderr)
     manifest = Path(args.output) / MANIFEST
     print(_t(f"{len(rows) - len(failed)} of {len(rows)} jobs done; manifest {manifest}"))
     return 1 if failed else 0
