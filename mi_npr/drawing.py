@@ -17,7 +17,7 @@ from . import layers as L
 from .compose import over
 from .errors import ParameterError
 from .gbuffer import GBuffer
-from .params import Param
+from .params import Param, one_of
 
 #: Black ink on white paper (linear RGB).
 INK, PAPER = (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
@@ -41,12 +41,10 @@ def selection_params(modes: Sequence[str] | None = None) -> tuple[Param, ...]:
     from .contours.idmode import ID_MODES
 
     allowed = tuple(modes or ID_MODES)
-
-    def one_of(v: str) -> str | None:
-        return None if v in allowed else f"expected one of {', '.join(allowed)}"
-
     return (
-        Param("id_mode", str, "shape", "what one object is: " + ", ".join(allowed), one_of),
+        Param(
+            "id_mode", str, "shape", "what one object is: " + ", ".join(allowed), one_of(allowed)
+        ),
         Param("only", str, "", "draw only objects matching these globs (comma-separated)"),
         Param("ignore", str, "", "objects matching these globs count as background"),
     )

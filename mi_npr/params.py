@@ -64,6 +64,15 @@ def integer_range(lo: int, hi: int) -> Rule:
     return check
 
 
+def one_of(values: Sequence[str]) -> Rule:
+    """The rule of a string among ``values`` (an XML string parameter's choices)."""
+
+    def check(v: Any) -> str | None:
+        return None if v in values else f"expected one of {', '.join(values)}"
+
+    return check
+
+
 def real_range(lo: float, hi: float = math.inf, *, open_lo: bool = False) -> Rule:
     """The rule of a finite number in ``[lo, hi]`` (``(lo, hi]`` with ``open_lo``)."""
 

@@ -71,11 +71,7 @@ from mi_npr.drawing import selection_params
 from mi_npr.gbuffer import GBuffer
 from mi_npr.integrator import NprIntegrator
 from mi_npr.kernels.ink import line_width
-from mi_npr.params import Param, rgb_color
-
-
-def _one_of(values: tuple[str, ...]):
-    return lambda v: None if v in values else f"expected one of {', '.join(values)}"
+from mi_npr.params import Param, one_of, rgb_color
 
 
 class NprContoursIntegrator(NprIntegrator):
@@ -83,7 +79,7 @@ class NprContoursIntegrator(NprIntegrator):
 
     PLUGIN = "npr_contours"
     PARAMS = (
-        Param("method", str, "border", "border or code_direction", _one_of(METHODS)),
+        Param("method", str, "border", "border or code_direction", one_of(METHODS)),
         *selection_params(ID_MODES),
         Param("color", tuple, (1.0, 0.0, 0.0), "linear RGB of the contours", rgb_color),
         Param("line_width", float, 1.0, "width of the drawn contours, in pixels", line_width),

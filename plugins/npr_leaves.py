@@ -95,14 +95,7 @@ from mi_npr.foliage.hlp import HLPSet
 from mi_npr.foliage.leaves import ORIENTATIONS, PLACEMENTS, make_leaves
 from mi_npr.foliage.plant import read_plant
 from mi_npr.foliage.shape import leaf_mesh, nested_bsdf, resolve_path
-from mi_npr.params import Param, integer_range, read_props, seed_rule
-
-
-def _one_of(options: tuple[str, ...]):
-    def check(v: str) -> str | None:
-        return None if v in options else f"expected one of {', '.join(options)}"
-
-    return check
+from mi_npr.params import Param, integer_range, one_of, read_props, seed_rule
 
 
 def _positive(v: float) -> str | None:
@@ -121,8 +114,8 @@ PARAMS = (
     Param("plant", str, "", "plant file (PLY/OBJ)"),
     Param("leaf_size", float, 0.1, "length of the leaf primitives", _positive),
     Param("leaf_shape", str, "quad", "quad, disc, ellipse, leaf or an RGBA .png"),
-    Param("placement", str, "surface", "leaves, surface or volume", _one_of(PLACEMENTS)),
-    Param("orientation", str, "hlp", "hlp, leaf, van_gogh or random", _one_of(ORIENTATIONS)),
+    Param("placement", str, "surface", "leaves, surface or volume", one_of(PLACEMENTS)),
+    Param("orientation", str, "hlp", "hlp, leaf, van_gogh or random", one_of(ORIENTATIONS)),
     Param("coverage", float, 1.0, "leaf area over the foliage's area", _positive),
     Param("tilt", float, 25.0, "random tilt in degrees", _tilt),
     Param("seed", int, 0, "seed of placement and orientation", seed_rule),
