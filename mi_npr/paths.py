@@ -186,14 +186,14 @@ def orbit(
     sphere), starting at the scene's camera and keeping its distance, height and ``fov``. A
     full turn (360) does not repeat its first view: frame ``i`` is at ``i * degrees / frames``.
     """
-    from .viewpoint.search import _nearest_axis
+    from .viewpoint.search import nearest_axis
 
     frames = check_frames(frames)
     if not math.isfinite(degrees):
         raise ParameterError(f"degrees = {degrees!r}: must be finite")
     s = load_scene(scene)
     start = scene_camera(s, sensor)
-    up = _nearest_axis(np.asarray(start.up))
+    up = nearest_axis(np.asarray(start.up))
     if target is None:
         bs = s.bbox().bounding_sphere()
         tgt = np.asarray(bs.center, np.float64).ravel()[:3]

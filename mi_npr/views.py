@@ -223,14 +223,14 @@ def _t3(v: Any) -> tuple[float, float, float]:
 def orbit(scene: Any, sensor: Any, n: int) -> list[CameraSpec]:
     """``n`` cameras on the circle around the up axis through the bounding sphere's centre,
     at the sensor's distance and elevation, the first one at the sensor's azimuth."""
+    from .viewpoint.search import nearest_axis
+
     o, _, up_s, fov = _pose(sensor)
     bs = scene.bbox().bounding_sphere()
     c = np.asarray(bs.center, np.float64).reshape(-1)[:3]
     if not np.all(np.isfinite(c)):
         c = np.zeros(3)
-    i = int(np.argmax(np.abs(up_s)))  # the world axis nearest the sensor's up (best view's)
-    up = np.zeros(3)
-    up[i] = 1.0 if up_s[i] >= 0 else -1.0
+    up = nearest_axis(up_s)  # the world axis nearest the sensor's up (best view's)
     rel = o - c
     h = float(rel @ up)  # height above the centre
     flat = rel - h * up

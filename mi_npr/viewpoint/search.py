@@ -195,7 +195,7 @@ def _bounding_sphere(
     return c, r, 0.25 * float(extent.min())
 
 
-def _nearest_axis(v: np.ndarray) -> np.ndarray:
+def nearest_axis(v: np.ndarray) -> np.ndarray:
     """The signed world axis closest to ``v``: a tilted camera's up vector (0, 0.95, 0.3) means
     the world's +y is up."""
     i = int(np.argmax(np.abs(v)))
@@ -221,7 +221,7 @@ def viewing(
         cam = camera_of(s)
         # The whole film's aspect (its fov is the whole film's), not a crop window's.
         fw, fh = (int(v) for v in s.film().size())
-        aspect, up = fw / fh, _nearest_axis(cam.up)
+        aspect, up = fw / fh, nearest_axis(cam.up)
         fov = float(cam.fov) if fov is None and cam.fov is not None else fov
     else:  # a scene built in Python may have no sensor: a square view, +y up
         aspect, up = 1.0, np.array([0.0, 1.0, 0.0])
