@@ -28,6 +28,7 @@ import math
 import os
 import re
 import resource
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -156,13 +157,12 @@ def plan(est: Estimate, bound: int | None, figure: str) -> int:
 
 
 def check_render(sensor: object, beauty: object | None, spp: int | None, seed: int = 0) -> int:
-    """The checks at the start of a render of ``sensor``'s film: ``spp`` and ``seed`` against
-    the validation table, then memory. Returns the number of beauty passes to use (1 almost
-    always), or raises :class:`ParameterError` / :class:`MemoryLimitError`."""
+    """The checks at the start of a render of ``sensor``'s film: ``seed`` against the validation
+    table (``spp`` was checked by :func:`mi_npr.session.check_spp`), then memory. Returns the
+    number of beauty passes to use (1 almost always), or raises :class:`ParameterError` /
+    :class:`MemoryLimitError`."""
     from .params import check_arg, cli_param
 
-    if spp is not None:
-        spp = check_arg("render", replace(cli_param("render", "--spp"), name="spp"), spp)
     check_arg("render", replace(cli_param("render", "--seed"), name="seed"), seed)
     film = sensor.film()  # type: ignore[attr-defined]
     w, h = (int(v) for v in film.crop_size())
@@ -178,11 +178,18 @@ def pass_counts(spp: int, passes: int) -> list[int]:
 
 
 def render_passes(
-    integrator: Any, scene: Any, sensor: Any, spp: int, seed: int, passes: int = 1
+    integrator: Any,
+    scene: Any,
+    sensor: Any,
+    spp: int,
+    seed: int,
+    passes: int = 1,
+    on_pass: Callable[[int], Any] | None = None,
 ) -> Any:
     """``integrator.render(scene, sensor, seed, spp)``, or with ``passes > 1`` the mean of that
     many renders of fewer samples with different seeds (weighted by their sample counts): the
-    same estimate of the image, in a fraction of the memory (see :func:`check_render`)."""
+    same estimate of the image, in a fraction of the memory (see :func:`check_render`) or with
+    a progress bar (``on_pass(samples)`` after each pass, :func:`mi_npr.render.beauty_layers`)."""
     if passes <= 1:
         return integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
     import drjit as dr
@@ -196,6 +203,8 @@ def render_passes(
         a = mi.TensorXf64(img) * n  # accumulated in float64, in Dr.Jit
         acc = a if acc is None else acc + a
         dr.eval(acc)
+        if on_pass is not None:
+            on_pass(n)
     return mi.TensorXf(acc / total)
 
 

@@ -99,40 +99,34 @@ PASS_SECONDS = 0.5
 
 
 def _render_in_passes(
-    scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Integrator, spp: int, seed: int
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    integrator: mi.Integrator,
+    spp: int,
+    seed: int,
+    passes: int = 1,
 ) -> Any:
     """The beauty of ``spp`` samples, with a progress bar on stderr when it is long.
 
     A 1-spp probe estimates the time of the whole render; under :data:`PROGRESS_AFTER` seconds
-    the beauty is one ``render`` call (the same image as without progress). Longer renders run
-    as passes of ~:data:`PASS_SECONDS`, each ``render(seed=k, spp=part)`` with its own seed,
-    averaged weighted by their spp: the same estimator as one render of ``spp`` samples with
-    other random numbers."""
+    the beauty is rendered as without progress (in the ``passes`` memory asks for). Longer
+    renders run as passes of ~:data:`PASS_SECONDS` (at least ``passes``) through
+    :func:`mi_npr.memory.render_passes`: each with its own seed, averaged weighted by their spp,
+    the same estimator as one render of ``spp`` samples with other random numbers."""
     import time
 
-    def one(seed_k: int, n: int) -> Any:
-        img = integrator.render(scene, sensor, seed=seed_k, spp=n, develop=True, evaluate=True)
-        dr.eval(img)
-        dr.sync_thread()
-        return img
-
     t0 = time.perf_counter()
-    one(seed, 1)
+    probe = integrator.render(scene, sensor, seed=seed, spp=1, develop=True, evaluate=True)
+    dr.eval(probe)
+    dr.sync_thread()
     estimate = (time.perf_counter() - t0) * spp
     if estimate < PROGRESS_AFTER:
-        return one(seed, spp)
+        return render_passes(integrator, scene, sensor, spp, seed, passes)
     from tqdm import tqdm
 
-    passes = min(spp, max(2, int(estimate / PASS_SECONDS)))
-    parts = [spp // passes + (k < spp % passes) for k in range(passes)]
-    acc = None
+    passes = max(passes, min(spp, max(2, int(estimate / PASS_SECONDS))))
     with tqdm(total=spp, desc="beauty", unit="spp", leave=False) as bar:
-        for k, n in enumerate(parts):
-            img = one((seed * 1000003 + k) % 2**31, n)
-            acc = img * (n / spp) if acc is None else acc + img * (n / spp)
-            dr.eval(acc)
-            bar.update(n)
-    return acc
+        return render_passes(integrator, scene, sensor, spp, seed, passes, on_pass=bar.update)
 
 
 def beauty_layers(
@@ -151,8 +145,8 @@ def beauty_layers(
     import sys
 
     total = spp or sensor.sampler().sample_count()
-    if progress and passes <= 1 and total >= 4 and sys.stderr.isatty():
-        img = _render_in_passes(scene, sensor, integrator, total, seed)
+    if progress and total >= 4 and sys.stderr.isatty():
+        img = _render_in_passes(scene, sensor, integrator, total, seed, passes)
     else:
         img = render_passes(integrator, scene, sensor, spp, seed, passes)
     h, w = (int(v) for v in img.shape[:2])
