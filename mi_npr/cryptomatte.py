@@ -122,13 +122,9 @@ def metadata(layer: str, names: Sequence[str]) -> dict[str, str]:
 
 
 def material_names(table: ObjectTable) -> dict[int, str]:
-    """Object id -> the name of its shape's BSDF (XML ``id``, else ``<shape>.bsdf``)."""
-    out = {}
-    for oid, shape in table.shapes.items():
-        bsdf = shape.bsdf()
-        name = bsdf.id() if bsdf is not None else ""
-        out[oid] = name if name else f"{table.names[oid]}.bsdf"
-    return out
+    """Object id -> the name of its shape's BSDF (XML ``id``, else ``<shape>.bsdf``): the object
+    table's material naming (:meth:`~mi_npr.scene.ObjectTable.material_names`)."""
+    return table.material_names()
 
 
 # ------------------------------------------------------------------------------------- coverage

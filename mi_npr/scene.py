@@ -231,7 +231,9 @@ class ObjectTable:
     shapes: dict[int, mi.Shape] = field(repr=False)
     _lut: Any = field(default=None, repr=False)  # registry index -> id
     materials: dict[int, str] = field(default_factory=dict)
-    _material_lut: Any = field(default=None, repr=False)  # object id -> material id
+    #: (N + 1,) int64: the material id of every object id (0: the background, instances)
+    material_ids: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64), repr=False)
+    _material_lut: Any = field(default=None, repr=False)  # material_ids in Dr.Jit, on first use
 
     def __len__(self) -> int:
         return len(self.names)
@@ -253,7 +255,17 @@ class ObjectTable:
 
     def material_of(self, object_id: Any) -> Any:
         """Material id of each object id (``UInt32``; 0 for the background)."""
+        if self._material_lut is None:
+            self._material_lut = mi.UInt32(self.material_ids.astype(np.uint32))
         return dr.gather(mi.UInt32, self._material_lut, object_id)
+
+    def material_names(self) -> dict[int, str]:
+        """Object id -> the name of its material (:attr:`materials`); an instance, which has
+        no BSDF of its own, is ``<object>.bsdf``."""
+        return {
+            oid: self.materials.get(int(self.material_ids[oid]), f"{self.names[oid]}.bsdf")
+            for oid in self.shapes
+        }
 
 
 def _materials(names: dict[int, str], shapes: dict[int, mi.Shape]) -> tuple[dict, np.ndarray]:
@@ -314,7 +326,7 @@ def object_table(scene: mi.Scene) -> ObjectTable:
     lut = np.zeros(int(reg.max()) + 1 if reg.size else 1, dtype=np.uint32)
     lut[reg] = ids
     materials, mat_lut = _materials(table, by_shape)
-    return ObjectTable(table, by_shape, mi.UInt32(lut), materials, mi.UInt32(mat_lut))
+    return ObjectTable(table, by_shape, mi.UInt32(lut), materials, mat_lut.astype(np.int64))
 
 
 def describe_objects(table: Mapping[int, str]) -> str:

@@ -212,7 +212,7 @@ def id_map(
     names: dict[int, str] = {}
     slot, next_id = 1, 1
     grouped: dict[str, int] = {}  # material / silhouette name -> id
-    materials = np.asarray(table._material_lut.numpy(), np.int64) if id_mode == "material" else None
+    materials = table.material_ids if id_mode == "material" else None
     comps = {}  # object id -> Parts: every mesh's components in one go (cached per mesh)
     if id_mode == "component":
         sids = [sid for sid in range(1, n + 1) if _splittable(table.shapes[sid])]
