@@ -140,9 +140,6 @@ class Hits:
         """Ids of an ``id_mode`` (:class:`~mi_npr.contours.idmode.IdMap`)."""
         return id_map.lookup(self.si)
 
-    def position(self) -> mi.Point3f:
-        return self.si.p
-
     def depth(self, sensor: mi.Sensor) -> mi.Float:
         """Camera-space depth along the sensor's view axis (+inf on a miss)."""
         o, f = camera_frame(sensor)
