@@ -126,7 +126,8 @@ class Caster:
         assert empty.known is not None
         self.ids = mi.UInt32(empty.ids)  # padded ids; the ring is OUTSIDE
         self.known = mi.Bool(empty.known)  # the ring is known
-        self._claim = dr.empty(mi.UInt32, len(empty.ids))  # one lane per pixel (cast_jit)
+        # one lane per pixel (cast_jit); all ones between batches
+        self._claim = dr.full(mi.UInt32, 0xFFFFFFFF, len(empty.ids))
         s = self.stride
         self.offsets = mi.UInt32(np.array([1, s, -1, -s], np.int64).astype(np.uint32))
         self._grid: Grid | None = None
@@ -164,7 +165,8 @@ class Caster:
         # Nothing else refers to ids / known now: the scatters write in place (no copy).
         dr.scatter(self.ids, self.compute_jit(new), new)
         dr.scatter(self.known, True, new)
-        dr.eval(self.ids, self.known)
+        dr.scatter(self._claim, 0xFFFFFFFF, new)  # every slot this batch claimed, reset
+        dr.eval(self.ids, self.known, self._claim)
         self._grid = None
         self._cast.append(new)
         self.stats.rays_cast += n
@@ -172,11 +174,14 @@ class Caster:
         return new
 
     def _unknown(self, pix: mi.UInt32, active: mi.Bool) -> mi.UInt32:
-        """The distinct unknown pixels among the active ``pix``: a scatter of lane numbers
-        into one slot per pixel, and the lane whose number stays is the one that casts."""
+        """The distinct unknown pixels among the active ``pix``, in the order of their first
+        lane: the smallest lane number of each pixel is kept in one slot per pixel (an atomic
+        minimum into slots that are all ones between batches, not a racing plain scatter, so
+        the batch, and the order its rays are traced in, is the same on every run whatever the
+        threads do)."""
         need = active & ~dr.gather(mi.Bool, self.known, pix, active)
         lane = dr.arange(mi.UInt32, dr.width(pix))
-        dr.scatter(self._claim, lane, pix, need)
+        dr.scatter_reduce(dr.ReduceOp.Min, self._claim, lane, pix, need, mode=dr.ReduceMode.Direct)
         win = need & (dr.gather(mi.UInt32, self._claim, pix, need) == lane)
         return dr.gather(mi.UInt32, pix, dr.compress(win))  # evaluated with the cast
 
