@@ -40,6 +40,7 @@ from . import layers as L
 from .errors import ParameterError
 from .gbuffer import GBuffer
 from .kernels import LINES_PARAMS, lines
+from .kernels._stencil import Grid
 from .kernels.chain import fade
 from .kernels.ink import MAX_WIDTH
 from .params import check_values
@@ -142,6 +143,6 @@ def antialiased_lines(
     sub = {**params, "line_width": width * n, "bright_fade": 0.0}
     ink = box_filter(lines(big, **sub), n)
     if level > 0:
-        ink = mi.TensorXf(ink.array * fade(gb, gb.shape, level), shape=gb.shape)
+        ink = mi.TensorXf(ink.array * fade(gb, Grid(gb.shape, ink.array), level), shape=gb.shape)
     dr.eval(ink)
     return ink

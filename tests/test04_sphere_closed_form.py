@@ -147,6 +147,7 @@ def test03_scalar_variant_gets_one_line_error(write_scene):
 def test04_cuda_variant_matches_llvm(write_scene):
     case = CASES[0]
     path = _sphere_scene(write_scene, case)
+    mi_npr.set_variant("llvm_ad_rgb")
     llvm = mi_npr.render(path)
     try:
         mi_npr.set_variant("cuda_ad_rgb")

@@ -14,7 +14,8 @@ Section 5.1 of the thesis, plus edges from the exact G-buffer:
 
 Inputs are numpy arrays or Dr.Jit tensors, checked on entry (a
 :class:`~mi_npr.errors.ParameterError` names the argument); results are evaluated
-``drjit.llvm.ad.TensorXf`` of the input's shape, and ``np.asarray`` gives a view of them.
+``TensorXf`` of the input's shape, on the backend of the first Dr.Jit input, else on the active
+variant's (``drjit.cuda.ad`` for ``cuda_*``, else ``drjit.llvm.ad``); ``np.asarray`` gives numpy.
 Kernels never read or write files and never see a scene.
 """
 

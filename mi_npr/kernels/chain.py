@@ -87,7 +87,6 @@ from collections.abc import Mapping
 from typing import Any
 
 import drjit as dr
-from drjit.llvm.ad import TensorXf
 
 from .. import layers as L
 from ..errors import ParameterError
@@ -95,11 +94,11 @@ from ..params import Param, check_values
 from ._stencil import (
     Field,
     Grid,
+    Tensor,
     finite,
     float_image,
     id_image,
     nonnegative,
-    opaque,
     same_shape,
     tensor,
     unit_interval,
@@ -141,7 +140,7 @@ def _layer(gbuffer: Mapping[str, Any], name: str, why: str) -> Any:
         raise ParameterError(f"lines: the G-buffer has no {name!r} layer ({why})") from None
 
 
-def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
+def lines(gbuffer: Mapping[str, Any], **params: Any) -> Tensor:
     """The gray-level line image of a G-buffer (the ``lines`` layer), see the module docstring.
 
     ``gbuffer`` is a :class:`~mi_npr.gbuffer.GBuffer` (or any mapping of layer names to (H, W)
@@ -163,7 +162,7 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
     p = check_values("lines", LINES_PARAMS, params)
     check_range(p["near"], p["far"], "lines")
     z, shape = float_image(_layer(gbuffer, L.Z, "depth"), L.Z)
-    grid = Grid(shape)
+    grid = Grid(shape, z)
 
     normalizer = depth_normalizer(z, p["near"], p["far"], relative=True, background=2.0)
     depth = Field(z, grid, normalizer)
@@ -178,10 +177,12 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
         ink = isolated_removed(Field(ink, grid), p["t0"])
 
     # The step eq. 5.1 draws: ID and crease edges at such a step take eq. 5.1's (near) side.
-    step = opaque(p["t"] / p["c"] if p["c"] > 0 else float("inf"))
+    step = grid.opaque(p["t"] / p["c"] if p["c"] > 0 else float("inf"))
     boundary, crease = _edges(gbuffer, params, p, depth, grid, step)
     if p["leaf_edges"]:
-        leaf, shape_l = id_image(_layer(gbuffer, L.LEAF_ID, "needed by leaf_edges"), L.LEAF_ID)
+        leaf, shape_l = id_image(
+            _layer(gbuffer, L.LEAF_ID, "needed by leaf_edges"), L.LEAF_ID, grid.B
+        )
         same_shape({L.Z: shape, L.LEAF_ID: shape_l})
         z_raw = Field(z, grid, lambda v: dr.select(dr.isnan(v), dr.inf, v))
         outline = leaf_edge(Field(leaf, grid), z_raw, p["leaf_edges"])
@@ -191,7 +192,7 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> TensorXf:
         dr.eval(ink)
         ink = widened(Field(ink, grid), p["line_width"])
     if p["bright_fade"] > 0:
-        ink = ink * fade(gbuffer, shape, p["bright_fade"])
+        ink = ink * fade(gbuffer, grid, p["bright_fade"])
     return tensor(ink, shape)
 
 
@@ -214,13 +215,15 @@ def _edges(
     if not (want_id or want_crease):
         return None, None
     why = "needed by id_edges and crease_angle"
-    ids, shape_i = id_image(_layer(gbuffer, L.OBJECT_ID, why), L.OBJECT_ID)
+    ids, shape_i = id_image(_layer(gbuffer, L.OBJECT_ID, why), L.OBJECT_ID, grid.B)
     same_shape({L.Z: shape, L.OBJECT_ID: shape_i})
     id_field = Field(ids, grid)
     boundary = id_edge_sided(id_field, depth, step) if want_id else None
     crease = None
     if want_crease:
-        normals = [float_image(_layer(gbuffer, n, "needed by crease_angle"), n) for n in L.N]
+        normals = [
+            float_image(_layer(gbuffer, n, "needed by crease_angle"), n, grid.B) for n in L.N
+        ]
         same_shape({L.Z: shape, **{n: s for n, (_, s) in zip(L.N, normals, strict=True)}})
         fields = [Field(q, grid) for q, _ in normals]
         crease = crease_edge(fields, id_field, p["crease_angle"], depth, step, view_axis(gbuffer))
@@ -253,18 +256,18 @@ def _thinned(ink: Any, boundary: Any, crease: Any, grid: Grid, bound: float) -> 
     out = levels[0]
     for sparser in levels[1:]:
         dr.eval(out)
-        dense = box_mean(Field(out, grid), DENSITY_WINDOW) > opaque(bound)
+        dense = box_mean(Field(out, grid), DENSITY_WINDOW) > grid.opaque(bound)
         out = dr.select(dense, sparser, out)
     return out
 
 
-def fade(gbuffer: Mapping[str, Any], shape: tuple[int, int], level: float) -> Any:
+def fade(gbuffer: Mapping[str, Any], grid: Grid, level: float) -> Any:
     """``clip(2 - Y / level, 0, 1)`` of the raw beauty's luminance ``Y`` (lazy)."""
     names = L.RAW_RGB if L.RAW_RGB[0] in gbuffer else L.RGB
     planes = []
     for n in names:
-        q, s = float_image(_layer(gbuffer, n, "needed by bright_fade"), n)
-        same_shape({L.Z: shape, n: s})
+        q, s = float_image(_layer(gbuffer, n, "needed by bright_fade"), n, grid.B)
+        same_shape({L.Z: grid.shape, n: s})
         planes.append(dr.select(dr.isfinite(q), q, 0.0))
     Y = dr.fma(0.2126, planes[0], dr.fma(0.7152, planes[1], 0.0722 * planes[2]))
-    return dr.clip(2.0 - Y / opaque(level), 0.0, 1.0)
+    return dr.clip(2.0 - Y / grid.opaque(level), 0.0, 1.0)

@@ -2,8 +2,10 @@
 contour filter (eq. 5.1) and the removal of isolated contour pixels (eq. 5.2).
 
 Layout: every function takes a 2-D ``(H, W)`` image, as a numpy array (any real dtype) or a
-Dr.Jit tensor, and returns a ``drjit.llvm.ad.TensorXf`` of the same shape, already evaluated;
-``np.asarray(result)`` is a view of it. The kernels run on Dr.Jit's LLVM backend.
+Dr.Jit tensor, and returns a ``TensorXf`` of the same shape, already evaluated;
+``np.asarray(result)`` gives numpy. The kernels run on the backend of their first Dr.Jit input,
+else on the active variant's (LLVM, or CUDA for ``cuda_*``), see
+:func:`mi_npr.kernels._stencil.backend`.
 
 >>> import numpy as np
 >>> from mi_npr.kernels import normalize_depth, depth_contours, remove_isolated
@@ -57,12 +59,13 @@ from collections.abc import Callable
 from typing import Any
 
 import drjit as dr
-from drjit.llvm.ad import Float, TensorXf
 
 from ..errors import ParameterError
 from ._stencil import (
+    Array,
     Field,
     Grid,
+    Tensor,
     finite,
     float_image,
     nonnegative,
@@ -91,7 +94,7 @@ def check_range(near: float | None, far: float | None, who: str = "") -> None:
         raise ParameterError(f"{prefix}near = {near!r}, far = {far!r}: near must be less than far")
 
 
-def _finite_range(z: Float) -> tuple[Float, Float]:
+def _finite_range(z: Array) -> tuple[Array, Array]:
     """Smallest and largest finite value of ``z`` (+inf, -inf when none), as 1-lane arrays that
     stay on the device (no round trip to Python)."""
     finite = dr.isfinite(z)
@@ -103,13 +106,13 @@ def _finite_range(z: Float) -> tuple[Float, Float]:
 
 
 def depth_normalizer(
-    z: Float,
+    z: Array,
     near: float | None = None,
     far: float | None = None,
     *,
     relative: bool = False,
     background: float = 1.0,
-) -> Callable[[Float], Float]:
+) -> Callable[[Array], Array]:
     """The per-pixel map ``Z -> D`` of :func:`normalize_depth` for the frame ``z`` (flat),
     to be fused into the kernel that reads the depth.
 
@@ -124,8 +127,8 @@ def depth_normalizer(
     if near is None or far is None:
         lo, hi = _finite_range(z)
         # One bound given: the other comes from the frame but never crosses it.
-        n = lo if near is None else opaque(near)
-        f = hi if far is None else opaque(far)
+        n = lo if near is None else opaque(near, z)
+        f = hi if far is None else opaque(far, z)
         if near is not None:
             f = dr.maximum(f, n)
         if far is not None:
@@ -133,7 +136,7 @@ def depth_normalizer(
         elif relative:
             f = dr.maximum(f, n + 3.0 * dr.maximum(n, 0.0))
     else:
-        n, f = opaque(near), opaque(far)
+        n, f = opaque(near, z), opaque(far, z)
     # A division (not a reciprocal) so that far maps to exactly 1. far == near (a flat frame, or
     # one finite pixel): the smallest normal float makes it a step, 0 up to near and 1 beyond.
     # Halves (exact) keep far - near and Z - near finite even for depths near the float32 limit.
@@ -142,13 +145,13 @@ def depth_normalizer(
     dr.eval(n, span)
     bg = float(background)
 
-    def normalize(v: Float) -> Float:
+    def normalize(v: Array) -> Array:
         return dr.select(dr.isfinite(v), dr.clip((v * 0.5 - n * 0.5) / span, 0.0, 1.0), bg)
 
     return normalize
 
 
-def normalize_depth(Z: Any, near: float | None = None, far: float | None = None) -> TensorXf:
+def normalize_depth(Z: Any, near: float | None = None, far: float | None = None) -> Tensor:
     """Depth ``Z`` (camera-space, +inf on background) normalised to ``D`` in [0, 1].
 
     ``D = clamp((Z - near) / (far - near), 0, 1)`` with 0 the nearest and 1 the farthest;
@@ -167,7 +170,7 @@ def normalize_depth(Z: Any, near: float | None = None, far: float | None = None)
     return tensor(depth_normalizer(z, near, far)(z), shape)
 
 
-def contours(D: Field, c: float, t: float) -> Float:
+def contours(D: Field, c: float, t: float) -> Array:
     """Eq. 5.1 on a depth field (lazy): ``max_i sat((d_i - d0) c - t)``, 8 neighbours.
 
     ``x -> sat((x - d0) c - t)`` is non-decreasing for ``c >= 0`` (also in floating point), so
@@ -180,10 +183,10 @@ def contours(D: Field, c: float, t: float) -> Float:
         if (dy, dx) != (0, 0):
             d = D.at(dy, dx)
             farthest = d if farthest is None else dr.maximum(farthest, d)
-    return dr.clip((farthest - D.at()) * opaque(c) - opaque(t), 0.0, 1.0)
+    return dr.clip((farthest - D.at()) * D.grid.opaque(c) - D.grid.opaque(t), 0.0, 1.0)
 
 
-def depth_contours(D: Any, c: float, t: float) -> TensorXf:
+def depth_contours(D: Any, c: float, t: float) -> Tensor:
     """Eq. 5.1 of the thesis: ``p0 = max_i sat((d_i - d0) * c - t)`` over the 8 neighbours.
 
     ``D`` is normalised depth (0 near, 1 far; see :func:`normalize_depth`), ``c >= 0`` scales
@@ -201,14 +204,14 @@ def depth_contours(D: Any, c: float, t: float) -> TensorXf:
     require("c", c, nonnegative)
     require("t", t, nonnegative)
     d, shape = float_image(D, "D")
-    return tensor(contours(Field(d, Grid(shape), sanitize_depth), c, t), shape)
+    return tensor(contours(Field(d, Grid(shape, d), sanitize_depth), c, t), shape)
 
 
-def isolated_removed(p: Field, t0: float) -> Float:
+def isolated_removed(p: Field, t0: float) -> Array:
     """Eq. 5.2 on a line field (lazy). ``p0 * sat(n - 2)`` with ``n`` the integer count of the
     3x3 block's pixels above ``t0`` is ``p0`` when ``n >= 3`` and 0 otherwise; pixels outside
     the image are not counted (zero padding)."""
-    grid, thr = p.grid, opaque(t0)
+    grid, thr = p.grid, p.grid.opaque(t0)
     n = None
     for dy, dx in window(3):
         inside = None if (dy, dx) == (0, 0) else grid.inside(dy, dx)
@@ -217,7 +220,7 @@ def isolated_removed(p: Field, t0: float) -> Float:
     return dr.select(n >= 3, p.at(), 0.0)
 
 
-def remove_isolated(p: Any, t0: float = 0.5) -> TensorXf:
+def remove_isolated(p: Any, t0: float = 0.5) -> Tensor:
     """Eq. 5.2 of the thesis: ``p0 <- p0 * sat(sum_i ceil(sat(p_i - t0)) - 2)``.
 
     The sum runs over the 3x3 block *including* the centre; ``ceil(sat(p_i - t0))`` is 1 when
@@ -234,4 +237,4 @@ def remove_isolated(p: Any, t0: float = 0.5) -> TensorXf:
     """
     require("t0", t0, unit_interval)
     v, shape = float_image(p, "p")
-    return tensor(isolated_removed(Field(v, Grid(shape), sanitize_lines), t0), shape)
+    return tensor(isolated_removed(Field(v, Grid(shape, v), sanitize_lines), t0), shape)

@@ -43,7 +43,7 @@ the image repeat the border pixel, so the image border itself is never an edge:
    ``-n . view / |n|``, ``view`` the camera's viewing axis), equal facing resolved by the larger
    normal in lexicographic (x, y, z) order.
 
-All return a ``drjit.llvm.ad.TensorXf`` of 0 and 1, shape (H, W).
+All return a ``TensorXf`` (on the inputs' backend) of 0 and 1, shape (H, W).
 """
 
 from __future__ import annotations
@@ -53,16 +53,16 @@ import numbers
 from typing import Any
 
 import drjit as dr
-from drjit.llvm.ad import Bool, Float, TensorXf
 
 from ..errors import ParameterError
 from ._stencil import (
     CROSS,
+    Array,
     Field,
     Grid,
+    Tensor,
     float_image,
     id_image,
-    opaque,
     require,
     same_shape,
     tensor,
@@ -70,7 +70,7 @@ from ._stencil import (
 )
 
 
-def id_edge(ids: Field) -> Bool:
+def id_edge(ids: Field) -> Array:
     """Pixels with a 4-neighbour of another id (lazy)."""
     centre = ids.at()
     edge = None
@@ -80,14 +80,14 @@ def id_edge(ids: Field) -> Bool:
     return edge
 
 
-def owns(z0: Any, z1: Any, step: Any, key_wins: Bool) -> Bool:
+def owns(z0: Any, z1: Any, step: Any, key_wins: Array) -> Array:
     """Whether pixel ``p`` (depth ``z0``) inks the edge it shares with ``q`` (depth ``z1``): the
     side rule of the module docstring. ``key_wins`` is the per-surface key's verdict."""
     dz = z1 - z0
     return (dz > step) | ((dr.abs(dz) <= step) & key_wins)
 
 
-def id_edge_sided(ids: Field, depth: Field, step: Any) -> Bool:
+def id_edge_sided(ids: Field, depth: Field, step: Any) -> Array:
     """1-px ID edges (lazy): pixels with a 4-neighbour of another id that they own (see
     :func:`owns`; ties go to the larger id)."""
     centre, z0 = ids.at(), depth.at()
@@ -107,13 +107,13 @@ def _step(step: Any) -> str | None:
 def _depth_field(depth: Any, shape: tuple[int, int], grid: Grid, name: str) -> Field:
     """``depth`` (or all zeros when ``None``) as a field, NaN read as +inf (background)."""
     if depth is None:
-        return Field(dr.zeros(Float, shape[0] * shape[1]), grid)
-    z, shape_z = float_image(depth, name)
+        return Field(grid.zeros(), grid)
+    z, shape_z = float_image(depth, name, grid.B)
     same_shape({"object_id": shape, name: shape_z})
     return Field(z, grid, _inf_for_nan)
 
 
-def id_edges(object_id: Any, width: int = 2, Z: Any = None, step: float = 0.0) -> TensorXf:
+def id_edges(object_id: Any, width: int = 2, Z: Any = None, step: float = 0.0) -> Tensor:
     """1 where a 4-neighbour has another ``object_id`` (ID edges), else 0.
 
     ``object_id`` is an (H, W) array of integers >= 0 (uint32 from the G-buffer, or floats
@@ -129,11 +129,11 @@ def id_edges(object_id: Any, width: int = 2, Z: Any = None, step: float = 0.0) -
     require("width", width, edge_width)
     require("step", step, _step)
     ids, shape = id_image(object_id, "object_id")
-    grid = Grid(shape)
+    grid = Grid(shape, ids)
     if width == 2:
         return tensor(dr.select(id_edge(Field(ids, grid)), 1.0, 0.0), shape)
     depth = _depth_field(Z, shape, grid, "Z")
-    edge = id_edge_sided(Field(ids, grid), depth, dr.opaque(Float, float(step)))
+    edge = id_edge_sided(Field(ids, grid), depth, grid.opaque(step))
     return tensor(dr.select(edge, 1.0, 0.0), shape)
 
 
@@ -147,7 +147,7 @@ def _length(n: list[Any]) -> Any:
     return dr.sqrt(dr.fma(n[0], n[0], dr.fma(n[1], n[1], n[2] * n[2])))
 
 
-def _bent(n0: list[Any], n1: list[Any], id0: Any, id1: Any, cos_a: Any) -> Bool:
+def _bent(n0: list[Any], n1: list[Any], id0: Any, id1: Any, cos_a: Any) -> Array:
     """Two 4-neighbours on one object whose normals turn by more than ``acos(cos_a)``: tested
     as ``dot(n0, n1) < cos_a |n0| |n1|`` (false for zero or non-finite normals). Equal normals
     never bend, whatever rounding does to the dot product and the lengths (an angle of 0, and the
@@ -157,12 +157,12 @@ def _bent(n0: list[Any], n1: list[Any], id0: Any, id1: Any, cos_a: Any) -> Bool:
     return (id1 == id0) & differ & (dot < cos_a * _length(n0) * _length(n1))
 
 
-def normal_edge(N: list[Field], ids: Field, angle_deg: float) -> Bool:
+def normal_edge(N: list[Field], ids: Field, angle_deg: float) -> Array:
     """Pixels whose normal turns by more than ``angle_deg`` towards a 4-neighbour on the same
     object (lazy). ``angle > a`` is tested as ``dot(n0, n1) < cos(a) |n0| |n1|``, false for
     zero or non-finite normals."""
     # cos(radians(90)) is 6e-17, not 0: rounded, a right angle is not "more than 90 degrees".
-    cos_a = opaque(round(math.cos(math.radians(angle_deg)), 12))
+    cos_a = ids.grid.opaque(round(math.cos(math.radians(angle_deg)), 12))
     n0, id0 = [f.at() for f in N], ids.at()
     edge = None
     for dy, dx in CROSS:
@@ -171,7 +171,7 @@ def normal_edge(N: list[Field], ids: Field, angle_deg: float) -> Bool:
     return edge & (id0 != 0)
 
 
-def normal_edges(N: Any, object_id: Any, angle_deg: float) -> TensorXf:
+def normal_edges(N: Any, object_id: Any, angle_deg: float) -> Tensor:
     """1 where the normal turns by more than ``angle_deg`` degrees to a 4-neighbour on the same
     object (crease edges, 2 px thick), else 0; background (id 0) has none.
 
@@ -185,9 +185,9 @@ def normal_edges(N: Any, object_id: Any, angle_deg: float) -> TensorXf:
     """
     require("angle_deg", angle_deg, angle)
     planes, shape_n = vector_image(N, "N")
-    ids, shape_i = id_image(object_id, "object_id")
+    ids, shape_i = id_image(object_id, "object_id", planes[0])
     shape = same_shape({"N": shape_n, "object_id": shape_i})
-    grid = Grid(shape)
+    grid = Grid(shape, ids)
     edge = normal_edge([Field(p, grid) for p in planes], Field(ids, grid), angle_deg)
     return tensor(dr.select(edge, 1.0, 0.0), shape)
 
@@ -210,11 +210,11 @@ def crease_edge(
     depth: Field,
     step: Any,
     view: tuple[float, float, float],
-) -> Bool:
+) -> Array:
     """1-px crease edges (lazy): pixels whose dihedral angle to a 4-neighbour on the same object
     is below ``crease_angle`` (normals turning by more than ``180 - crease_angle``) and that own
     the edge (:func:`owns`; ties to the surface facing ``view``'s camera more)."""
-    cos_a = opaque(round(math.cos(math.radians(180.0 - crease_angle)), 12))
+    cos_a = ids.grid.opaque(round(math.cos(math.radians(180.0 - crease_angle)), 12))
     n0 = [f.at() for f in N]
     u0 = _unit(n0)
     facing0 = -(u0[0] * view[0] + u0[1] * view[1] + u0[2] * view[2])
@@ -252,7 +252,7 @@ def crease_edges(
     Z: Any = None,
     step: float = 0.0,
     view: tuple[float, float, float] = (0.0, 0.0, 1.0),
-) -> TensorXf:
+) -> Tensor:
     """1 on creases (dihedral angle below ``crease_angle`` degrees between 4-neighbours on one
     object), 1 px thick, else 0; background (id 0) has none. ``crease_angle = 0`` draws none.
 
@@ -269,24 +269,24 @@ def crease_edges(
     require("step", step, _step)
     view = _view(view)
     planes, shape_n = vector_image(N, "N")
-    ids, shape = id_image(object_id, "object_id")
+    ids, shape = id_image(object_id, "object_id", planes[0])
     same_shape({"object_id": shape, "N": shape_n})
-    grid = Grid(shape)
+    grid = Grid(shape, ids)
     if crease_angle == 0:
-        return tensor(dr.zeros(Float, shape[0] * shape[1]), shape)
+        return tensor(grid.zeros(), shape)
     depth = _depth_field(Z, shape, grid, "Z")
     edge = crease_edge(
         [Field(p, grid) for p in planes],
         Field(ids, grid),
         crease_angle,
         depth,
-        dr.opaque(Float, float(step)),
+        grid.opaque(step),
         view,
     )
     return tensor(dr.select(edge, 1.0, 0.0), shape)
 
 
-def leaf_edge(ids: Field, depth: Field, width: int) -> Bool:
+def leaf_edge(ids: Field, depth: Field, width: int) -> Array:
     """Pixels on a leaf outline (lazy): a 4-neighbour has another leaf id (one of the two != 0);
     with ``width == 1`` only where this pixel is the nearer one of the pair."""
     centre, z0 = ids.at(), depth.at()
@@ -310,7 +310,7 @@ def _inf_for_nan(z: Any) -> Any:
     return dr.select(dr.isnan(z), dr.inf, z)
 
 
-def leaf_edges(leaf_id: Any, Z: Any, width: int = 1) -> TensorXf:
+def leaf_edges(leaf_id: Any, Z: Any, width: int = 1) -> Tensor:
     """1 on the outline of every leaf (the ``leaf_id`` layer), else 0; see the module docstring.
 
     ``leaf_id`` is an (H, W) integer image (0 = not a leaf), ``Z`` the (H, W) depth (``+inf`` or
@@ -323,8 +323,8 @@ def leaf_edges(leaf_id: Any, Z: Any, width: int = 1) -> TensorXf:
     """
     require("width", width, edge_width)
     ids, shape_i = id_image(leaf_id, "leaf_id")
-    z, shape_z = float_image(Z, "Z")
+    z, shape_z = float_image(Z, "Z", ids)
     shape = same_shape({"leaf_id": shape_i, "Z": shape_z})
-    grid = Grid(shape)
+    grid = Grid(shape, ids)
     edge = leaf_edge(Field(ids, grid), Field(z, grid, _inf_for_nan), width)
     return tensor(dr.select(edge, 1.0, 0.0), shape)

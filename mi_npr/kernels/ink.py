@@ -1,7 +1,7 @@
 """Line width and ink density: the last two stages of the line chain (issue 19).
 
-Layout: a 2-D ``(H, W)`` line image in [0, 1] in (numpy or Dr.Jit), a ``drjit.llvm.ad.TensorXf``
-of the same shape out (see :mod:`mi_npr.kernels.depth_lines`). Pixels outside the image count
+Layout: a 2-D ``(H, W)`` line image in [0, 1] in (numpy or Dr.Jit), a ``TensorXf`` of the same
+shape out (see :mod:`mi_npr.kernels.depth_lines`). Pixels outside the image count
 as no ink (zero padding) for the width, and not at all for the density.
 
 - :func:`widen_lines` -- every line ``width`` pixels wide. A 1-px line is dilated with a soft
@@ -22,9 +22,8 @@ import numbers
 from typing import Any
 
 import drjit as dr
-from drjit.llvm.ad import Float, TensorXf
 
-from ._stencil import Field, Grid, float_image, require, sanitize_lines, tensor
+from ._stencil import Array, Field, Grid, Tensor, float_image, require, sanitize_lines, tensor
 
 #: Widest line (px): a width-w dilation reads (w + 1)^2 neighbours in one kernel.
 MAX_WIDTH = 15.0
@@ -44,7 +43,7 @@ def density_bound(v: Any) -> str | None:
     return None if ok else "must lie in (0, 1] (share of inked pixels; 1 = off)"
 
 
-def widened(p: Field, width: float) -> Float:
+def widened(p: Field, width: float) -> Array:
     """:func:`widen_lines` on an evaluated line field (lazy)."""
     if width <= 1.0:
         return p.at() * float(width)
@@ -61,7 +60,7 @@ def widened(p: Field, width: float) -> Float:
     return out
 
 
-def widen_lines(lines: Any, width: float) -> TensorXf:
+def widen_lines(lines: Any, width: float) -> Tensor:
     """Every line of ``lines`` (gray levels in [0, 1], NaN = none) ``width`` pixels wide; see
     the module docstring.
 
@@ -72,7 +71,7 @@ def widen_lines(lines: Any, width: float) -> TensorXf:
     """
     require("width", width, line_width)
     v, shape = float_image(lines, "lines")
-    grid = Grid(shape)
+    grid = Grid(shape, v)
     src = Field(v, grid, sanitize_lines)
     if width > 1.0:
         s = sanitize_lines(v)
@@ -81,7 +80,7 @@ def widen_lines(lines: Any, width: float) -> TensorXf:
     return tensor(widened(src, float(width)), shape)
 
 
-def box_mean(p: Field, size: int) -> Float:
+def box_mean(p: Field, size: int) -> Array:
     """Mean of ``p`` over the part of the ``size`` x ``size`` window inside the image, in two
     separable passes; evaluates the row pass and returns the column pass lazily."""
     r = size // 2
@@ -104,7 +103,7 @@ def box_mean(p: Field, size: int) -> Float:
     return total / (count_x * count_y)
 
 
-def ink_density(lines: Any, size: int = DENSITY_WINDOW) -> TensorXf:
+def ink_density(lines: Any, size: int = DENSITY_WINDOW) -> Tensor:
     """The mean ink of ``lines`` over a ``size`` x ``size`` window (odd ``size`` >= 1) around
     each pixel, over the window's pixels inside the image.
 
@@ -117,4 +116,4 @@ def ink_density(lines: Any, size: int = DENSITY_WINDOW) -> TensorXf:
     v, shape = float_image(lines, "lines")
     s = sanitize_lines(v)
     dr.eval(s)
-    return tensor(box_mean(Field(s, Grid(shape)), int(size)), shape)
+    return tensor(box_mean(Field(s, Grid(shape, s)), int(size)), shape)

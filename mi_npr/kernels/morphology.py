@@ -1,7 +1,7 @@
 """Selective dilation of the depth buffer (eqs. 5.3-5.4 of the thesis): a pre-filter that fills
 small holes (1-pixel "holes" that eq. 5.2 cannot remove) without growing objects.
 
-Layout: a 2-D ``(H, W)`` image in, a ``drjit.llvm.ad.TensorXf`` of the same shape out (see
+Layout: a 2-D ``(H, W)`` image in, a ``TensorXf`` of the same shape and backend out (see
 :mod:`mi_npr.kernels.depth_lines`).
 
 Ambiguities resolved (issue 4): the thesis works on reversed depth ``R = 1 - D`` (0 = far
@@ -25,10 +25,19 @@ import numbers
 from typing import Any
 
 import drjit as dr
-from drjit.llvm.ad import Float, Float64, TensorXf
 
 from ..params import MAX_ITERATIONS
-from ._stencil import Field, Grid, float_image, require, sanitize_depth, tensor, window
+from ._stencil import (
+    Array,
+    Field,
+    Grid,
+    Tensor,
+    float_image,
+    require,
+    sanitize_depth,
+    tensor,
+    window,
+)
 
 #: Largest window: an n x n window is n * n gathers unrolled into one kernel.
 MAX_SIZE = 15
@@ -52,7 +61,7 @@ def iteration_count(v: Any) -> str | None:
     return None if v <= MAX_ITERATIONS else f"must be at most {MAX_ITERATIONS}"
 
 
-def dilated(D: Field, size: int) -> Float:
+def dilated(D: Field, size: int) -> Array:
     """One selective dilation (eqs. 5.3-5.4) of a depth field (lazy).
 
     The test ``R_i > m`` on reversed depth ``R = 1 - D`` is ``d_i < mean(d)``, decided as
@@ -63,7 +72,7 @@ def dilated(D: Field, size: int) -> Float:
     """
     offsets = window(size)
     depths = [D.at(dy, dx) for dy, dx in offsets]
-    wide = [Float64(d) for d in depths]
+    wide = [dr.float64_array_t(type(d))(d) for d in depths]
     centre = offsets.index((0, 0))
     total, nearest = wide[0], depths[0]
     for w, d in zip(wide[1:], depths[1:], strict=True):
@@ -78,7 +87,7 @@ def dilated(D: Field, size: int) -> Float:
     return dr.select(n_above > (len(depths) - 1) // 2, nearest, depths[centre])
 
 
-def selective_dilation(D: Any, size: int = 3, iterations: int = 1) -> TensorXf:
+def selective_dilation(D: Any, size: int = 3, iterations: int = 1) -> Tensor:
     """Selective dilation of normalised depth ``D`` (eqs. 5.3-5.4 of the thesis).
 
     On reversed depth ``R = 1 - D`` with an n x n window (``size`` odd, >= 3): where more than
@@ -96,7 +105,7 @@ def selective_dilation(D: Any, size: int = 3, iterations: int = 1) -> TensorXf:
     require("size", size, window_size)
     require("iterations", iterations, iteration_count)
     d, shape = float_image(D, "D")
-    grid = Grid(shape)
+    grid = Grid(shape, d)
     field = Field(d, grid, sanitize_depth)
     out = field.at()
     for _ in range(iterations):
