@@ -249,8 +249,16 @@ def test09_unresolved_instance_groups_still_count(write_scene, ply, monkeypatch)
     origins = 3.0 * np.eye(3)
     a_good = areas(inst, origins, (0, 0, 0), 50.0, (24, 24), polys=good)
     a_blind = areas(inst, origins, (0, 0, 0), 50.0, (24, 24), polys=blind)
-    np.testing.assert_array_equal(a_good[:, 0], a_blind[:, 0])
+    # Blind, the children's BSDFs are unknown, so no hit is a back face. Closed shapes seen from
+    # outside show none either, except where rounding at a grazing silhouette pixel turns the
+    # normal away (none on LLVM; OptiX's analytic sphere gave one).
+    back = a_good[:, 0].astype(int) - a_blind[:, 0]
+    assert np.all((back >= 0) & (back <= 1)), back
+    seen = [a[:, 1:].sum(1).astype(int) for a in (a_good, a_blind)]
+    np.testing.assert_array_equal(seen[1] - seen[0], back)
     for oid in (1, 2):
         lo, hi = int(good.base[oid]) + 1, int(good.base[oid] + good.span[oid]) + 1
-        np.testing.assert_array_equal(a_good[:, lo:hi].sum(1), a_blind[:, lo:hi].sum(1))
+        assert np.all(
+            np.abs(a_good[:, lo:hi].sum(1).astype(int) - a_blind[:, lo:hi].sum(1)) <= back
+        )
     assert np.all(blind.topology().polygon_vertices == -1)

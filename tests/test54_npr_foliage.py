@@ -214,7 +214,9 @@ def test05_N_is_the_leaf_normal_at_abstraction_0_and_mixes_between(tree_scenes):
     np.testing.assert_allclose(gb5.normals[leaf], half, atol=1e-3)
     # Other shapes keep their own normals.
     wood = gb0.object_id == gb0.find_object("wood")
-    np.testing.assert_array_equal(gb0.normals[wood], gb5.normals[wood])
+    # (Bit for bit on LLVM; CUDA compiles the two renders' kernels to different instruction
+    # orders, an ulp apart.)
+    np.testing.assert_allclose(gb0.normals[wood], gb5.normals[wood], rtol=0, atol=2.5e-7)
 
 
 def test06_path_integrator_and_mi_render(tree_scenes):

@@ -72,6 +72,7 @@ def _numpy(name: str, a: np.ndarray) -> np.ndarray:
 def test01_backend_rule():
     """First JIT input wins; numpy alone follows the active variant; plain and AD flavours of
     one backend are one backend (the AD module is used)."""
+    mi_npr.set_variant("llvm_ad_rgb")
     assert backend(np.zeros(3)) is llvm_ad
     assert backend(np.zeros(3), llvm_plain.Float([1.0])) is llvm_ad
     assert backend(llvm_ad.TensorXf([1.0])) is llvm_ad
@@ -81,6 +82,7 @@ def test01_backend_rule():
 def test02_llvm_tensors_match_numpy(flavour):
     """LLVM tensors (Dr.Jit's plain and AD types) give the numpy inputs' result, as LLVM AD
     tensors."""
+    mi_npr.set_variant("llvm_ad_rgb")  # numpy inputs run on LLVM too
     module = llvm_plain if flavour == "plain" else llvm_ad
     want = {k: np.asarray(f()) for k, f in _calls(_numpy).items()}
     for name, call in _calls(_tensor(module)).items():
@@ -92,6 +94,7 @@ def test02_llvm_tensors_match_numpy(flavour):
 def test03_mixed_inputs():
     """numpy next to a tensor is brought to the tensor's backend; an (H, W, 3) tensor of normals
     is split on the device, as the numpy planes are."""
+    mi_npr.set_variant("llvm_ad_rgb")
     a = _inputs()
     got = K.normal_edges(llvm_ad.TensorXf(a["N"]), a["ids"], 30.0)
     np.testing.assert_array_equal(np.asarray(got), np.asarray(K.normal_edges(a["N"], a["ids"], 30)))

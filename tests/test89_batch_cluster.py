@@ -141,6 +141,11 @@ def test01_both_workers_render_and_the_layers_equal_one_process(cluster, tmp_pat
         b = mi_npr.io.read_exr(local / row["outputs"][0])
         assert a.names == b.names and "lines.V" in a.names
         for name in a.names:
+            beauty = name in ("R", "G", "B") or name.startswith("beauty.")
+            if beauty and mi_npr.mi.variant().startswith("cuda"):
+                # CUDA accumulates the film's samples in no fixed order: the last bits differ.
+                np.testing.assert_allclose(a.numpy(name), b.numpy(name), rtol=1e-6)
+                continue
             np.testing.assert_array_equal(a.numpy(name), b.numpy(name), err_msg=name)
     local_rows = {row["job"]: row for row in here}
     for row in rows:

@@ -14,6 +14,7 @@ recompile anything; only the image size and the window size are baked into a ker
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 import numbers
@@ -91,6 +92,24 @@ def backend(*inputs: Any) -> ModuleType:
     if variant is not None and variant.startswith("cuda_"):
         return importlib.import_module(_MODULES[dr.JitBackend.CUDA])
     return importlib.import_module(_MODULES[dr.JitBackend.LLVM])
+
+
+def exact(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """A public kernel: traced and evaluated with Dr.Jit's ``FastMath`` flag off.
+
+    With ``FastMath`` the CUDA backend compiles a float division to ``div.approx`` (off by an
+    ulp or two, and 0 for a divisor beyond 2^126) and flushes denormals to zero; the kernels
+    promise exact results (``far`` maps to exactly 1, float32 extremes stay finite, gray levels
+    agree with the numpy references), so they use IEEE operations, and a CUDA result equals the
+    LLVM one. The flag is part of Dr.Jit's kernel key: nothing else is affected.
+    """
+
+    @functools.wraps(fn)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        with dr.scoped_set_flag(dr.JitFlag.FastMath, False):
+            return fn(*args, **kwargs)
+
+    return run
 
 
 def _module(like: Any) -> ModuleType:

@@ -95,6 +95,7 @@ from ._stencil import (
     Field,
     Grid,
     Tensor,
+    exact,
     finite,
     float_image,
     id_image,
@@ -140,6 +141,7 @@ def _layer(gbuffer: Mapping[str, Any], name: str, why: str) -> Any:
         raise ParameterError(f"lines: the G-buffer has no {name!r} layer ({why})") from None
 
 
+@exact
 def lines(gbuffer: Mapping[str, Any], **params: Any) -> Tensor:
     """The gray-level line image of a G-buffer (the ``lines`` layer), see the module docstring.
 

@@ -66,6 +66,7 @@ from ._stencil import (
     Field,
     Grid,
     Tensor,
+    exact,
     finite,
     float_image,
     nonnegative,
@@ -151,6 +152,7 @@ def depth_normalizer(
     return normalize
 
 
+@exact
 def normalize_depth(Z: Any, near: float | None = None, far: float | None = None) -> Tensor:
     """Depth ``Z`` (camera-space, +inf on background) normalised to ``D`` in [0, 1].
 
@@ -186,6 +188,7 @@ def contours(D: Field, c: float, t: float) -> Array:
     return dr.clip((farthest - D.at()) * D.grid.opaque(c) - D.grid.opaque(t), 0.0, 1.0)
 
 
+@exact
 def depth_contours(D: Any, c: float, t: float) -> Tensor:
     """Eq. 5.1 of the thesis: ``p0 = max_i sat((d_i - d0) * c - t)`` over the 8 neighbours.
 
@@ -220,6 +223,7 @@ def isolated_removed(p: Field, t0: float) -> Array:
     return dr.select(n >= 3, p.at(), 0.0)
 
 
+@exact
 def remove_isolated(p: Any, t0: float = 0.5) -> Tensor:
     """Eq. 5.2 of the thesis: ``p0 <- p0 * sat(sum_i ceil(sat(p_i - t0)) - 2)``.
 

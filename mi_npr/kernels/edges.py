@@ -61,6 +61,7 @@ from ._stencil import (
     Field,
     Grid,
     Tensor,
+    exact,
     float_image,
     id_image,
     require,
@@ -113,6 +114,7 @@ def _depth_field(depth: Any, shape: tuple[int, int], grid: Grid, name: str) -> F
     return Field(z, grid, _inf_for_nan)
 
 
+@exact
 def id_edges(object_id: Any, width: int = 2, Z: Any = None, step: float = 0.0) -> Tensor:
     """1 where a 4-neighbour has another ``object_id`` (ID edges), else 0.
 
@@ -171,6 +173,7 @@ def normal_edge(N: list[Field], ids: Field, angle_deg: float) -> Array:
     return edge & (id0 != 0)
 
 
+@exact
 def normal_edges(N: Any, object_id: Any, angle_deg: float) -> Tensor:
     """1 where the normal turns by more than ``angle_deg`` degrees to a 4-neighbour on the same
     object (crease edges, 2 px thick), else 0; background (id 0) has none.
@@ -245,6 +248,7 @@ def _view(v: Any) -> tuple[float, float, float]:
     return (a[0] / norm, a[1] / norm, a[2] / norm)
 
 
+@exact
 def crease_edges(
     N: Any,
     object_id: Any,
@@ -310,6 +314,7 @@ def _inf_for_nan(z: Any) -> Any:
     return dr.select(dr.isnan(z), dr.inf, z)
 
 
+@exact
 def leaf_edges(leaf_id: Any, Z: Any, width: int = 1) -> Tensor:
     """1 on the outline of every leaf (the ``leaf_id`` layer), else 0; see the module docstring.
 

@@ -23,7 +23,17 @@ from typing import Any
 
 import drjit as dr
 
-from ._stencil import Array, Field, Grid, Tensor, float_image, require, sanitize_lines, tensor
+from ._stencil import (
+    Array,
+    Field,
+    Grid,
+    Tensor,
+    exact,
+    float_image,
+    require,
+    sanitize_lines,
+    tensor,
+)
 
 #: Widest line (px): a width-w dilation reads (w + 1)^2 neighbours in one kernel.
 MAX_WIDTH = 15.0
@@ -60,6 +70,7 @@ def widened(p: Field, width: float) -> Array:
     return out
 
 
+@exact
 def widen_lines(lines: Any, width: float) -> Tensor:
     """Every line of ``lines`` (gray levels in [0, 1], NaN = none) ``width`` pixels wide; see
     the module docstring.
@@ -103,6 +114,7 @@ def box_mean(p: Field, size: int) -> Array:
     return total / (count_x * count_y)
 
 
+@exact
 def ink_density(lines: Any, size: int = DENSITY_WINDOW) -> Tensor:
     """The mean ink of ``lines`` over a ``size`` x ``size`` window (odd ``size`` >= 1) around
     each pixel, over the window's pixels inside the image.

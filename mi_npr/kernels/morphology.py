@@ -32,6 +32,7 @@ from ._stencil import (
     Field,
     Grid,
     Tensor,
+    exact,
     float_image,
     require,
     sanitize_depth,
@@ -87,6 +88,7 @@ def dilated(D: Field, size: int) -> Array:
     return dr.select(n_above > (len(depths) - 1) // 2, nearest, depths[centre])
 
 
+@exact
 def selective_dilation(D: Any, size: int = 3, iterations: int = 1) -> Tensor:
     """Selective dilation of normalised depth ``D`` (eqs. 5.3-5.4 of the thesis).
 

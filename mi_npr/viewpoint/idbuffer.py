@@ -22,9 +22,11 @@ faces (below). The rays of V viewpoints (``V x width x height`` lanes) are built
 :mod:`mi_npr.raycast` (:func:`~mi_npr.raycast.pinhole_rays`, :func:`~mi_npr.raycast.cast`) in one
 kernel launch per batch, no Python loop over views.
 
-**Back faces.** A hit whose geometric normal faces away from the ray (``dot(n, d) > 0``) on a
-shape whose BSDF has no back side (``mi.BSDFFlags.BackSide`` unset: ``diffuse``, ``conductor``,
-``plastic``...; ``twosided``, ``dielectric``, ``principled`` have one) counts as background: the
+**Back faces.** A hit whose geometric normal faces away from the ray, or lies across it
+(``dot(n, d) >= 0``: a face seen exactly edge-on, which OptiX reports as a hit where Embree
+reports none), on a shape whose BSDF has no back side (``mi.BSDFFlags.BackSide`` unset:
+``diffuse``, ``conductor``, ``plastic``...; ``twosided``, ``dielectric``, ``principled`` have
+one) counts as background: the
 outside of a one-sided room's walls is what Mitsuba renders black, so it adds nothing to eqs.
 1-3. It still hides what lies behind it (the ray stops there, as in a render).
 
@@ -105,7 +107,7 @@ class Polygons:
         index = dr.select(oid > 0, self._gather(self._base, oid) + within + 1, 0)
         if d is not None:
             one_sided = dr.gather(mi.UInt32, self._one_sided, r, known) > 0
-            index = dr.select((oid > 0) & one_sided & (dr.dot(si.n, d) > 0), back, index)
+            index = dr.select((oid > 0) & one_sided & (dr.dot(si.n, d) >= 0), back, index)
         return index
 
     @staticmethod

@@ -177,7 +177,7 @@ def _bounding_sphere(
 ) -> tuple[np.ndarray, float, float]:
     """The scene's bounding sphere, or that of the objects not in ``ignore`` (a floor left out
     of the measures is left out of the framing too), and the radius of the sphere of viewpoints
-    inside it (half the box's smallest half-extent)."""
+    inside it (half the box's smallest half-extent; 0 for a flat scene)."""
     if not scene.shapes():
         return np.zeros(3), 0.0, 0.0
     bb = scene.bbox()
@@ -192,7 +192,10 @@ def _bounding_sphere(
     if not (np.all(np.isfinite(c)) and math.isfinite(r)):
         raise SceneError("the scene's bounding box is not finite: give target and radius")
     extent = np.asarray(bb.max, np.float64).ravel()[:3] - np.asarray(bb.min, np.float64).ravel()[:3]
-    return c, r, 0.25 * float(extent.min())
+    inner = 0.25 * float(extent.min())
+    # A flat scene has no inside: a quad rotated by 90 degrees is 1e-16 thick from rounding,
+    # and a camera on its plane would see it edge-on (or, on OptiX, hit it at t = 0).
+    return c, r, inner if inner > 1e-4 * r else 0.0
 
 
 def nearest_axis(v: np.ndarray) -> np.ndarray:
