@@ -31,7 +31,6 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import maximum_filter
 
 from . import layers as L
 from .errors import ParameterError
@@ -81,7 +80,7 @@ def reproject(
         z = np.asarray(Z, np.float64)
         if z.shape != (h, w):
             raise ParameterError(f"popping: Z is {z.shape}, the camera's image is {(h, w)}")
-        far = maximum_filter(np.where(np.isnan(z), np.inf, z), size=2 * radius + 1, mode="nearest")
+        far = _maximum_filter(np.where(np.isnan(z), np.inf, z), radius)
         behind = depth[kept] > far[row[kept], col[kept]] * (1 + depth_tolerance)
         idx = np.flatnonzero(kept.ravel())[behind]
         kept.ravel()[idx] = False
@@ -89,12 +88,19 @@ def reproject(
     return col, row, depth, kept
 
 
+def _maximum_filter(a: np.ndarray, radius: int) -> np.ndarray:
+    """The maximum over a (2 radius + 1)^2 window, the border repeated."""
+    from scipy.ndimage import maximum_filter  # lazy: scipy.ndimage costs ~0.1 s to import
+
+    return maximum_filter(a, size=2 * radius + 1, mode="nearest")
+
+
 def _vanished(a: Any, b: Any, layer: str, radius: int, tol: float) -> tuple[float, float]:
     """(ink of ``a`` that ``b`` lacks, kept ink of ``a``) for ``a`` reprojected into ``b``."""
     ink_a = np.clip(np.nan_to_num(_numpy(a, layer)), 0, 1)
     ink_b = np.clip(np.nan_to_num(_numpy(b, layer)), 0, 1)
     col, row, _, kept = reproject(a, _camera(b), _numpy(b, L.Z), radius=radius, depth_tolerance=tol)
-    near = maximum_filter(ink_b, size=2 * radius + 1, mode="nearest") if radius else ink_b
+    near = _maximum_filter(ink_b, radius) if radius else ink_b
     ia = ink_a[kept]
     there = near[row[kept], col[kept]]
     return float(np.maximum(ia - there, 0).sum()), float(ia.sum())

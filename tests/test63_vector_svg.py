@@ -259,3 +259,13 @@ def test09_raytree_svg_has_one_layer_per_edge_class(tmp_path):
             assert np.min([seg_dist(c, q, False) for q in polys], axis=0).max() <= 0.25 + 0.01
             v = (np.concatenate(polys) - 0.5).round().astype(int)
             assert mask[v[:, 1], v[:, 0]].all()
+
+
+@pytest.mark.parametrize("value", ["a", 'say "hi"', "it's", "<&>", "tab\there\nnew\rline", "ünï"])
+def test10_quoteattr_round_trips_through_an_xml_parser(value):
+    """The attribute quoting the SVG and sensor XML writers use (no xml.sax import)."""
+    import xml.etree.ElementTree as ET
+
+    from mi_npr.io.text import quoteattr
+
+    assert ET.fromstring(f"<g id={quoteattr(value)}/>").get("id") == value

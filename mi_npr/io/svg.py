@@ -42,7 +42,6 @@ import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
-from xml.sax.saxutils import quoteattr
 
 import numpy as np
 from PIL import Image
@@ -52,6 +51,7 @@ from ..gbuffer import GBuffer
 from ..params import MAX_RES, Param, check_arg, integer_range, real_range, rgb_color
 from ._atomic import atomic_output, check_writable_dir, output_set
 from .png import linear_to_srgb, to_rgb8
+from .text import quoteattr
 
 _RESERVED = {"beauty", "beauty-layer", "contours"}
 _INKSCAPE = "http://www.inkscape.org/namespaces/inkscape"

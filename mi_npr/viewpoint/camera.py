@@ -20,11 +20,11 @@ kernel as wide as their spacing).
 from __future__ import annotations
 
 import math
-from xml.sax.saxutils import quoteattr
 
 import mitsuba as mi
 import numpy as np
 
+from ..io.text import quoteattr
 from ..scene import sensor_of
 from .search import BestView
 
