@@ -3,7 +3,8 @@
 The chain (what ``npr_lines`` runs, with ID edges on): depth normalisation over the frame's finite
 range -> selective dilation 3x3 (eqs. 5.3-5.4) -> signed depth contours (eq. 5.1) -> isolated-pixel
 removal (eq. 5.2) -> max with 1-px object-ID edges. Ours is
-``mi_npr.kernels.lines(gb, id_edges=True)`` (Dr.Jit, LLVM). The anchor is the same chain with
+``mi_npr.kernels.lines(gb, id_edges=True, crease_angle=0)`` (Dr.Jit, on the active variant's
+backend: LLVM, or CUDA with ``MI_NPR_VARIANT=cuda_ad_rgb``). The anchor is the same chain with
 OpenCV where it has the operation
 (``cv2.minMaxLoc``, ``cv2.blur``, ``cv2.dilate``, ``cv2.erode``, ``cv2.boxFilter``) and numpy for
 the rest (the neighbour count of eq. 5.4 has no OpenCV primitive). Both start from the same numpy
@@ -44,15 +45,18 @@ TARGETS = {"warm_ms_640x480": 3.0, "ratio_warm_3840x2160": 1.0, "peak_mb_3840x21
 
 
 def opencv_lines(Z: np.ndarray, ids: np.ndarray, c=40.0, t=1.0, t0=0.5) -> np.ndarray:
-    """The anchor: the chain of ``mi_npr.kernels.lines(..., id_edges=True)`` with OpenCV."""
+    """The anchor: the chain of ``mi_npr.kernels.lines(..., id_edges=True, crease_angle=0)``
+    with OpenCV (its depth range as the chain's: ``far`` at least ``4 near``, background 2)."""
     import cv2
 
     box = np.ones((3, 3), np.uint8)
     rep = cv2.BORDER_REPLICATE
     finite = np.isfinite(Z)
     lo, hi, _, _ = cv2.minMaxLoc(np.where(finite, Z, 0).astype(np.float32), finite.view(np.uint8))
-    D = np.clip((Z - np.float32(lo)) * np.float32(1.0 / (hi - lo) if hi > lo else 3.4e38), 0, 1)
-    D[~finite] = 1.0
+    lo, hi = np.float32(lo), np.float32(max(hi, lo + 3.0 * max(lo, 0.0)))
+    span = max(hi * np.float32(0.5) - lo * np.float32(0.5), np.float32(1.1754944e-38))
+    D = np.clip((Z * np.float32(0.5) - lo * np.float32(0.5)) / span, 0, 1).astype(np.float32)
+    D[~finite] = 2.0
     # Selective dilation on R = 1 - D (eqs. 5.3-5.4).
     R = 1.0 - D
     mean = cv2.blur(R, (3, 3), borderType=rep)
@@ -98,7 +102,7 @@ def _setup(case: str, data: Path, w: int, h: int, threads: int):
     gb = {"Z": Z, "object_id.V": ids}
 
     def run():
-        out = mi_npr.kernels.lines(gb, id_edges=True)
+        out = mi_npr.kernels.lines(gb, id_edges=True, crease_angle=0)
         dr.sync_thread()
         return out
 
@@ -167,7 +171,7 @@ def render_inputs(data: Path, sizes: list[tuple[int, int]]) -> dict:
         gb = mi_npr.render_gbuffer(scene)
         np.save(data / f"Z_{w}x{h}.npy", gb["Z"])
         np.save(data / f"id_{w}x{h}.npy", gb["object_id.V"])
-        ours = np.asarray(mi_npr.kernels.lines(gb, id_edges=True))
+        ours = np.asarray(mi_npr.kernels.lines(gb, id_edges=True, crease_angle=0))
         anchor = opencv_lines(gb["Z"], gb["object_id.V"])
         agree[f"{w}x{h}"] = {
             "max_abs_diff": float(np.abs(ours - anchor).max()),
