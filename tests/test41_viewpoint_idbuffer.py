@@ -251,7 +251,7 @@ def test09_unresolved_instance_groups_still_count(write_scene, ply, monkeypatch)
     a_blind = areas(inst, origins, (0, 0, 0), 50.0, (24, 24), polys=blind)
     # Blind, the children's BSDFs are unknown, so no hit is a back face. Closed shapes seen from
     # outside show none either, except where rounding at a grazing silhouette pixel turns the
-    # normal away (none on LLVM; OptiX's analytic sphere gave one).
+    # normal away (none on LLVM; one pixel on CUDA).
     back = a_good[:, 0].astype(int) - a_blind[:, 0]
     assert np.all((back >= 0) & (back <= 1)), back
     seen = [a[:, 1:].sum(1).astype(int) for a in (a_good, a_blind)]

@@ -23,10 +23,9 @@ faces (below). The rays of V viewpoints (``V x width x height`` lanes) are built
 kernel launch per batch, no Python loop over views.
 
 **Back faces.** A hit whose geometric normal faces away from the ray, or lies across it
-(``dot(n, d) >= 0``: a face seen exactly edge-on, which OptiX reports as a hit where Embree
-reports none), on a shape whose BSDF has no back side (``mi.BSDFFlags.BackSide`` unset:
-``diffuse``, ``conductor``, ``plastic``...; ``twosided``, ``dielectric``, ``principled`` have
-one) counts as background: the
+(``dot(n, d) >= 0``: a face seen exactly edge-on shows no area), on a shape whose BSDF has no
+back side (``mi.BSDFFlags.BackSide`` unset: ``diffuse``, ``conductor``, ``plastic``...;
+``twosided``, ``dielectric``, ``principled`` have one) counts as background: the
 outside of a one-sided room's walls is what Mitsuba renders black, so it adds nothing to eqs.
 1-3. It still hides what lies behind it (the ray stops there, as in a render).
 
