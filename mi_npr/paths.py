@@ -39,7 +39,7 @@ import mitsuba as mi
 import numpy as np
 
 from .errors import InputError, ParameterError
-from .params import MAX_FRAMES
+from .params import MAX_FRAMES, check_lookat
 from .scene import camera_of, load_scene, sensor_of
 
 SceneLike = str | os.PathLike[str] | mi.Scene
@@ -57,24 +57,12 @@ class PathCamera:
     time: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("origin", "target", "up"):
-            try:
-                v = np.asarray(getattr(self, name), np.float64).reshape(-1)
-            except (TypeError, ValueError):
-                v = np.full(1, np.nan)
-            if v.shape != (3,) or not np.all(np.isfinite(v)):
-                raise ParameterError(f"camera {name} = {getattr(self, name)!r}: expected 3 numbers")
-            object.__setattr__(self, name, tuple(float(x) for x in v))
-        fov = self.fov
-        if isinstance(fov, bool) or not isinstance(fov, (int, float)) or not 0 < fov < 180:
-            raise ParameterError(f"camera fov = {fov!r}: must be in (0, 180) degrees")
-        object.__setattr__(self, "fov", float(fov))
+        o, t, u, fov = check_lookat("camera", self.origin, self.target, self.up, self.fov)
+        if fov is None:
+            raise ParameterError("camera: fov = None: must be in (0, 180) degrees")
+        for name, value in (("origin", o), ("target", t), ("up", u), ("fov", fov)):
+            object.__setattr__(self, name, value)
         object.__setattr__(self, "time", float(self.time))
-        d = np.subtract(self.target, self.origin)
-        if np.linalg.norm(d) == 0:
-            raise ParameterError(f"camera at {self.origin}: origin and target are the same point")
-        if np.linalg.norm(np.cross(d, self.up)) <= 1e-9 * np.linalg.norm(d):
-            raise ParameterError(f"camera at {self.origin}: up {self.up} is along the view")
 
     @property
     def direction(self) -> np.ndarray:

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from .errors import ParameterError
-from .params import VIEW_PARAMS, check_arg
+from .params import VIEW_PARAMS, check_arg, check_lookat
 
 #: A view id is a file stem: letters, digits, ``_``, ``-`` and ``.`` (not first).
 _VIEW_ID = re.compile(r"^[A-Za-z0-9_-][A-Za-z0-9_.-]{0,99}$")
@@ -91,16 +91,6 @@ class ViewSpec:
         return [f"{self.kind}_{k:0{width}d}" for k in range(self.n)]
 
 
-def _vec3(where: str, name: str, value: Any) -> tuple[float, float, float]:
-    try:
-        v = [float(x) for x in value]
-    except (TypeError, ValueError):
-        v = []
-    if len(v) != 3 or not all(math.isfinite(x) for x in v):
-        raise ParameterError(f"{where}: {name} = {value!r}: expected 3 finite numbers")
-    return (v[0], v[1], v[2])
-
-
 def _camera(where: str, item: Any) -> CameraSpec:
     if not isinstance(item, dict):
         raise ParameterError(f"{where}: expected an object with origin, target, up, fov")
@@ -113,19 +103,9 @@ def _camera(where: str, item: Any) -> CameraSpec:
     for key in ("origin", "target"):
         if key not in item:
             raise ParameterError(f"{where}: missing {key!r}")
-    origin = _vec3(where, "origin", item["origin"])
-    target = _vec3(where, "target", item["target"])
-    up = _vec3(where, "up", item.get("up", (0.0, 1.0, 0.0)))
-    d = np.subtract(target, origin)
-    if np.linalg.norm(d) == 0:
-        raise ParameterError(f"{where}: origin and target are the same point")
-    if np.linalg.norm(np.cross(d, up)) <= 1e-9 * np.linalg.norm(d) * max(np.linalg.norm(up), 1e-30):
-        raise ParameterError(f"{where}: up = {list(up)} is parallel to the view direction")
-    fov = item.get("fov")
-    if fov is not None:
-        if isinstance(fov, bool) or not isinstance(fov, (int, float)) or not 0 < fov < 180:
-            raise ParameterError(f"{where}: fov = {fov!r}: must be in (0, 180) degrees")
-        fov = float(fov)
+    origin, target, up, fov = check_lookat(
+        where, item["origin"], item["target"], item.get("up", (0.0, 1.0, 0.0)), item.get("fov")
+    )
     return CameraSpec(origin, target, up, fov)
 
 
