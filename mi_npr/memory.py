@@ -185,20 +185,28 @@ def render_passes(
     seed: int,
     passes: int = 1,
     on_pass: Callable[[int], Any] | None = None,
+    first: tuple[Any, int] | None = None,
 ) -> Any:
     """``integrator.render(scene, sensor, seed, spp)``, or with ``passes > 1`` the mean of that
     many renders of fewer samples with different seeds (weighted by their sample counts): the
     same estimate of the image, in a fraction of the memory (see :func:`check_render`) or with
-    a progress bar (``on_pass(samples)`` after each pass, :func:`mi_npr.render.beauty_layers`)."""
-    if passes <= 1:
+    a progress bar (``on_pass(samples)`` after each pass, :func:`mi_npr.render.beauty_layers`).
+
+    ``first = (image, n)``: a render of ``n`` of the ``spp`` samples made already with ``seed``
+    (the progress bar's time probe); it counts as the first pass, and the passes that render the
+    other ``spp - n`` samples take seeds other than ``seed``."""
+    if passes <= 1 and first is None:
         return integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
     import drjit as dr
     import mitsuba as mi
 
     total = spp or int(sensor.sampler().sample_count())
-    acc = None
-    for i, n in enumerate(pass_counts(total, passes)):
-        s = (seed * passes + i) & 0xFFFFFFFF  # distinct seeds, within Mitsuba's uint32
+    acc, rest, shift = None, total, 0
+    if first is not None:
+        img, n = first
+        acc, rest, shift = mi.TensorXf64(img) * n, total - n, 1
+    for i, n in enumerate(pass_counts(rest, min(passes, rest)) if rest > 0 else []):
+        s = (seed * (passes + shift) + i + shift) & 0xFFFFFFFF  # distinct, within uint32
         img = integrator.render(scene, sensor, seed=s, spp=n, develop=True, evaluate=True)
         a = mi.TensorXf64(img) * n  # accumulated in float64, in Dr.Jit
         acc = a if acc is None else acc + a

@@ -110,9 +110,10 @@ def _render_in_passes(
 
     A 1-spp probe estimates the time of the whole render; under :data:`PROGRESS_AFTER` seconds
     the beauty is rendered as without progress (in the ``passes`` memory asks for). Longer
-    renders run as passes of ~:data:`PASS_SECONDS` (at least ``passes``) through
-    :func:`mi_npr.memory.render_passes`: each with its own seed, averaged weighted by their spp,
-    the same estimator as one render of ``spp`` samples with other random numbers."""
+    renders keep the probe as their first sample and run the other ``spp - 1`` as passes of
+    ~:data:`PASS_SECONDS` (at least ``passes``) through :func:`mi_npr.memory.render_passes`:
+    each with its own seed, averaged weighted by their spp, the same estimator as one render of
+    ``spp`` samples with other random numbers."""
     import time
 
     t0 = time.perf_counter()
@@ -124,9 +125,12 @@ def _render_in_passes(
         return render_passes(integrator, scene, sensor, spp, seed, passes)
     from tqdm import tqdm
 
-    passes = max(passes, min(spp, max(2, int(estimate / PASS_SECONDS))))
+    passes = max(passes, min(spp - 1, max(2, int(estimate / PASS_SECONDS))))
     with tqdm(total=spp, desc="beauty", unit="spp", leave=False) as bar:
-        return render_passes(integrator, scene, sensor, spp, seed, passes, on_pass=bar.update)
+        bar.update(1)
+        return render_passes(
+            integrator, scene, sensor, spp, seed, passes, on_pass=bar.update, first=(probe, 1)
+        )
 
 
 def beauty_layers(

@@ -191,7 +191,7 @@ def test07_progress_passes_and_per_scene_lines(tmp_path, monkeypatch, capsys):
     # not a terminal (pytest's stderr): no bar, one render, the same image
     quiet = R.beauty_layers(scene, sensor, integ, 8, 0, progress=True)
     np.testing.assert_array_equal(np.stack(list(quiet.values())), np.stack(list(one.values())))
-    img = R._render_in_passes(scene, sensor, integ, 8, 0)  # 8 passes of 1 spp, averaged
+    img = R._render_in_passes(scene, sensor, integ, 8, 0)  # the probe + 7 passes of 1 spp
     a, ref = np.asarray(img)[..., :3], np.stack(list(one.values()), -1)
     assert a.shape == ref.shape and abs(a.mean() - ref.mean()) < 0.1 * ref.mean()
     # per-scene lines: printed as each job ends, before the next starts
@@ -215,3 +215,34 @@ def test08_best_view_takes_the_size_flags(tmp_path):
     assert Image.open(out / "ground_best_view.png").size == (40, 30)
     xml = (out / "ground_best_view.xml").read_text()
     assert 'name="width" value="40"' in xml and 'name="sample_count" value="2"' in xml
+
+
+def test09_progress_keeps_its_probe(tmp_path, monkeypatch):
+    """A long render's 1-spp time probe is its first sample: spp - 1 more are rendered, in
+    passes whose seeds differ from the probe's, and the mean is weighted by sample counts."""
+    import importlib
+
+    R = importlib.import_module("mi_npr.render")
+    M = importlib.import_module("mi_npr.memory")
+    scene = mi_npr.load_scene(ground(tmp_path))
+    sensor, integ = scene.sensors()[0], scene.integrator()
+    calls = []
+
+    class Spy:
+        def render(self, *a, seed, spp, **k):
+            calls.append((seed, spp))
+            return integ.render(*a, seed=seed, spp=spp, **k)
+
+    monkeypatch.setattr(R, "PROGRESS_AFTER", 0.0)
+    monkeypatch.setattr(R, "PASS_SECONDS", 1e-9)
+    img = np.asarray(R._render_in_passes(scene, sensor, Spy(), 5, 7))
+    assert calls[0] == (7, 1) and sum(n for _, n in calls) == 5
+    seeds = [s for s, _ in calls]
+    assert len(set(seeds)) == len(seeds)
+    # the same mean from the spy's own renders
+    ref = sum(np.asarray(integ.render(scene, sensor, seed=s, spp=n)) * n for s, n in calls) / 5
+    np.testing.assert_allclose(img, ref, rtol=1e-5, atol=1e-6)
+    # memory passes larger than the samples left never ask for a render of 0 spp
+    calls.clear()
+    M.render_passes(Spy(), scene, sensor, 3, 0, passes=8, first=(integ.render(scene, sensor), 1))
+    assert [n for _, n in calls] == [1, 1]
