@@ -99,6 +99,23 @@ def _header(gb: GBuffer) -> dict[str, Any]:
     return header
 
 
+_threads_set: list[int] = []  # the thread count this module last gave OpenEXR
+
+
+def _threads() -> None:
+    """OpenEXR (de)compresses scanline blocks on a thread pool of its own, off (0 threads)
+    unless someone sets it: it gets as many threads as Dr.Jit has (a batch worker's
+    ``--threads``). A count somebody else has set is left alone."""
+    import drjit as dr
+
+    now = OpenEXR.global_thread_count()
+    if now == 0 or (_threads_set and now == _threads_set[-1]):
+        n = max(1, int(dr.thread_count()))
+        if n != now:
+            OpenEXR.set_global_thread_count(n)
+            _threads_set[:] = [n]
+
+
 def write_exr(path: str | os.PathLike[str], gbuffer: GBuffer) -> Path:
     """Write every layer of ``gbuffer`` to ``path`` (atomically). Returns the path."""
     if not isinstance(gbuffer, GBuffer):
@@ -110,6 +127,7 @@ def write_exr(path: str | os.PathLike[str], gbuffer: GBuffer) -> Path:
     ints = [k for k, v in layers.items() if v.dtype != channels[k].dtype]
     if ints:
         header[_INTEGER] = json.dumps(ints)
+    _threads()
     with atomic_output(target) as tmp:
         with OpenEXR.File(header, channels) as f:
             f.write(tmp)
@@ -157,6 +175,7 @@ def read_exr(path: str | os.PathLike[str]) -> GBuffer:
         magic = fh.read(4)
     if magic != _MAGIC:
         raise InputError(f"{p}: not a valid EXR (truncated?)")
+    _threads()
     try:
         with quiet_library():  # the library prints its own lines about a damaged file
             f = OpenEXR.File(str(p), separate_channels=True)

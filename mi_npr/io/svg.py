@@ -44,13 +44,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from PIL import Image
 
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
 from ..params import MAX_RES, Param, check_arg, integer_range, real_range, rgb_color
 from ._atomic import atomic_output, check_writable_dir, output_set
-from .png import linear_to_srgb, to_rgb8
+from .png import linear_to_srgb, save_png, to_rgb8
 from .text import quoteattr
 
 _RESERVED = {"beauty", "beauty-layer", "contours"}
@@ -109,7 +108,7 @@ def _path_data(contour: Any) -> str:
 
 def _png_base64(image: np.ndarray) -> str:
     buf = io.BytesIO()
-    Image.fromarray(to_rgb8(np.asarray(image)[..., :3])).save(buf, format="PNG")
+    save_png(to_rgb8(np.asarray(image)[..., :3]), buf)
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
