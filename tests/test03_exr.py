@@ -165,3 +165,24 @@ def test10_writer_runtime_error_is_an_output_error(tmp_path, monkeypatch):
     with pytest.raises(OutputError, match=r"d\.exr: cannot write \(.*No space left on device\)"):
         write_exr(tmp_path / "d.exr", _gbuffer())
     assert os.listdir(tmp_path) == []
+
+
+def test11_openexr_threads_follow_drjit_and_leave_a_users_count(tmp_path):
+    """OpenEXR's thread pool (off by default) gets Dr.Jit's thread count; a count set by
+    somebody else stays; the files are the same with threads as without."""
+    import drjit as dr
+
+    before = OpenEXR.global_thread_count()
+    gb = _gbuffer(64, 48)
+    try:
+        OpenEXR.set_global_thread_count(0)
+        exr_module._threads_set.clear()
+        write_exr(tmp_path / "a.exr", gb)
+        assert OpenEXR.global_thread_count() == max(1, dr.thread_count())
+        OpenEXR.set_global_thread_count(3)  # the user's
+        back = read_exr(tmp_path / "a.exr")
+        assert OpenEXR.global_thread_count() == 3
+        write_exr(tmp_path / "b.exr", back)
+        assert (tmp_path / "a.exr").read_bytes() == (tmp_path / "b.exr").read_bytes()
+    finally:
+        OpenEXR.set_global_thread_count(before)
