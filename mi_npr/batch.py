@@ -316,20 +316,13 @@ def _done(row: Mapping[str, Any], job: Job, flags: Mapping[str, Any], outdir: Pa
 
 
 def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
-    """The drawing parameters, each checked by the drawings that take it."""
-    from .params import coerce
-    from .pipeline import LAYERS, layer_params
+    """The drawing parameters, each checked by the drawings that take it
+    (:func:`mi_npr.pipeline.drawing_params`), as sorted ``(name, value)`` pairs."""
+    from .pipeline import drawing_params
 
-    for d in drawings:
-        if d not in LAYERS:
-            raise ParameterError(f"drawing {d!r}: expected one of {', '.join(LAYERS)}")
-    out = {}
-    for name, value in params.items():
-        takers = [(d, p) for d in drawings for p in layer_params(d) if p.name == name]
-        if not takers:
-            raise ParameterError(f"parameter {name!r}: no drawing of this batch takes it")
-        for d, p in takers:
-            out[name] = coerce(LAYERS[d], p, value)
+    out: dict[str, Any] = {}
+    for taken in drawing_params(drawings, params, "batch").values():
+        out.update(taken)
     return tuple(sorted(out.items()))
 
 

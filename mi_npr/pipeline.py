@@ -55,6 +55,32 @@ def layer_params(layer: str) -> tuple[Param, ...]:
     return plugin_class(LAYERS[layer]).PARAMS
 
 
+def drawing_params(
+    drawings: Sequence[str], params: Mapping[str, Any], what: str = "render"
+) -> dict[str, dict[str, Any]]:
+    """The values in ``params`` (parameter name -> value, the command line's flags) that each of
+    ``drawings`` takes, checked by its plugin's table: ``{drawing: {name: value}}``, drawings in
+    :data:`LAYERS` order. A name that none of them takes is a :class:`ParameterError` naming the
+    flag and the drawings that would take it (``what``: "render", "batch")."""
+    for d in drawings:
+        if d not in LAYERS:
+            raise ParameterError(f"drawing {d!r}: expected one of {', '.join(LAYERS)}")
+    out: dict[str, dict[str, Any]] = {}
+    for layer, plugin in LAYERS.items():
+        if layer in drawings:
+            known = {p.name: p for p in layer_params(layer)}
+            out[layer] = {n: coerce(plugin, known[n], v) for n, v in params.items() if n in known}
+    unused = [n for n in params if not any(n in taken for taken in out.values())]
+    if unused:
+        flags = ", ".join("--" + n.replace("_", "-") for n in unused)
+        takers = sorted(
+            {layer for layer in LAYERS for p in layer_params(layer) if p.name in unused}
+        )
+        hint = " or ".join("--" + t for t in takers) or "a drawing"
+        raise ParameterError(f"{flags}: no drawing of this {what} takes it (add {hint})")
+    return out
+
+
 def settings(
     integrator: mi.Integrator,
     drawings: Sequence[str] = (),
@@ -64,35 +90,20 @@ def settings(
     """Every drawing that is on and its full, checked parameters.
 
     On: the ``drawings`` asked for, and (with ``scene_drawings``) the one whose plugin is the
-    scene's integrator. Each takes from ``params`` (parameter name -> value, the command line's
-    flags) the names its plugin has, over the scene integrator's XML values (when it is that
-    plugin), over the plugin's defaults. A name in ``params`` that no drawing that is on takes
-    is a :class:`ParameterError` naming it."""
+    scene's integrator. Each takes from ``params`` (:func:`drawing_params`) the names its plugin
+    has, over the scene integrator's XML values (when it is that plugin), over the plugin's
+    defaults."""
     own = getattr(integrator, "PLUGIN", None)
-    params = dict(params or {})
     for d in drawings:
         if d not in LAYERS:
             raise ParameterError(f"drawing {d!r}: expected one of {', '.join(LAYERS)}")
+    on = [k for k, plugin in LAYERS.items() if k in drawings or (scene_drawings and own == plugin)]
+    taken = drawing_params(on, dict(params or {}))
     out: dict[str, dict[str, Any]] = {}
-    used: set[str] = set()
-    for layer, plugin in LAYERS.items():
-        if layer not in drawings and not (scene_drawings and own == plugin):
-            continue
-        known = {p.name: p for p in layer_params(layer)}
-        values = dict(integrator.params) if own == plugin else {}
-        for name, value in params.items():
-            if name in known:
-                values[name] = coerce(plugin, known[name], value)
-                used.add(name)
-        out[layer] = {n: values.get(n, p.default) for n, p in known.items()}
-    unused = [n for n in params if n not in used]
-    if unused:
-        flags = ", ".join("--" + n.replace("_", "-") for n in unused)
-        takers = sorted(
-            {layer for layer in LAYERS for p in layer_params(layer) if p.name in unused}
-        )
-        hint = " or ".join("--" + t for t in takers) or "a drawing"
-        raise ParameterError(f"{flags}: no drawing of this render takes it (add {hint})")
+    for layer in on:
+        values = dict(integrator.params) if own == LAYERS[layer] else {}
+        values.update(taken[layer])
+        out[layer] = {p.name: values.get(p.name, p.default) for p in layer_params(layer)}
     return out
 
 

@@ -146,7 +146,11 @@ def test06_cli_exit_codes_and_errors(write_scene, tmp_path):
         (["--threads-per-worker", "0"], 2, "--threads-per-worker"),
         (["--retries", "1000"], 2, "--retries"),
         (["--scheduler", "tcp://127.0.0.1:9", "--views", "scene"], 1, "--scheduler"),
-        (["--crease-angle", "30"], 1, "crease_angle"),
+        (
+            ["--crease-angle", "30"],
+            1,
+            "--crease-angle: no drawing of this batch takes it (add --lines)",
+        ),
     ]:
         r = run_cli("batch", str(good), "-o", str(tmp_path / "o2"), "--no-progress", *argv,
                     env={"DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT": "1s"})  # fmt: skip
