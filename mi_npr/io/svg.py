@@ -255,10 +255,11 @@ def write_contour_outputs(
     paths: Iterable | None = None,
     strokes: Mapping[str, tuple[Sequence[np.ndarray], Sequence[float]]] | None = None,
 ) -> list[Path]:
-    """What ``mi-npr contours`` writes: ``<stem>_contours.exr`` (every layer, ``contour.V``
+    """The files of ``mi-npr contours``: ``<stem>_contours.exr`` (every layer, ``contour.V``
     included), ``<stem>_contours.png`` (R G B: the beauty with the contours drawn) and
     ``<stem>_contours.svg`` (``paths`` if given, else the pixel ``contours``, plus ``strokes``
-    layers). ``svg_image``: ``embed`` the raw beauty in the SVG, ``link`` it (written as
+    layers; the command's SVG holds :func:`mi_npr.contours.vectorize`'s outlines).
+    ``svg_image``: ``embed`` the raw beauty in the SVG, ``link`` it (written as
     ``<stem>_beauty.png`` beside it) or ``none`` (also ``beauty_in_svg=False``). The SVG's colour
     is the GBuffer's ``mi_npr/contour_color`` (red if absent)."""
     from ..compose import raw_beauty
