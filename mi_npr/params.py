@@ -105,8 +105,8 @@ def check_lookat(
     one check of every camera a user writes (camera files of ``--views``, camera paths)."""
 
     def vec3(name: str, value: Any) -> Vec3:
-        try:
-            v = [float(x) for x in value]
+        try:  # a string of three digits is not three numbers
+            v = [] if isinstance(value, (str, bytes)) else [float(x) for x in value]
         except (TypeError, ValueError):
             v = []
         if len(v) != 3 or not all(math.isfinite(x) for x in v):

@@ -61,6 +61,7 @@ def test02_bad_specs_are_one_line_errors(spec, words):
         ([{"origin": [0, 0, 0], "target": [0, 0, 0]}], "same point"),
         ([{"origin": [0, 0, 0], "target": [0, 1, 0]}], "parallel"),
         ([{"origin": [0, 0, "a"], "target": [0, 0, 1]}], "origin"),
+        ([{"origin": [0, 0, 0], "target": "001"}], "target"),
         ([{"origin": [0, 0, float("nan")], "target": [0, 0, 1]}], "origin"),
         ([{"origin": [0, 0, 0], "target": [0, 0, 1], "fov": 180}], "fov"),
         ([{"origin": [0, 0, 0], "target": [0, 0, 1], "fov": True}], "fov"),

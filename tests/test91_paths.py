@@ -140,6 +140,7 @@ def test07_json_round_trip_and_errors(tmp_path):
         ('[{"origin": [0,0,0], "target": [0,0,1], "up": [0,0,1], "fov": 40}]', "along the view"),
         ('[{"origin": [0,0,0], "target": [0,0,1], "up": [0,1,0], "fov": 200}]', "fov"),
         ('[{"origin": [0,"x",0], "target": [0,0,1], "up": [0,1,0], "fov": 40}]', "origin"),
+        ('[{"origin": "123", "target": [0,0,1], "up": [0,1,0], "fov": 40}]', "origin"),
     ):
         with pytest.raises(InputError, match=what):
             P.from_json(bad, "keys.json")
