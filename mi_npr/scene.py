@@ -156,9 +156,9 @@ def sensor_at(
     view ``fov`` in degrees (``None``: ``like``'s) and the film size, reconstruction filter,
     sampler (a clone: same type, sample count and seed) and clip planes of the sensor ``like``:
     the camera of a batch view or of a camera path, built with ``mi.load_dict``."""
-    params = mi.traverse(like)
+    cam = camera_of(like)
     if fov is None:
-        fov = _scalar(params["x_fov"]) if "x_fov" in params else 45.0
+        fov = cam.fov if cam.fov is not None else 45.0
     w, h = (int(v) for v in like.film().size())
     d: dict[str, Any] = {
         "type": "perspective",
@@ -171,10 +171,9 @@ def sensor_at(
         ),
         "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": like.film().rfilter()},
         "sampler": like.sampler().clone(),
+        "near_clip": cam.near_clip,
+        "far_clip": cam.far_clip,
     }
-    for key in ("near_clip", "far_clip"):
-        if key in params:
-            d[key] = _scalar(params[key])
     return mi.load_dict(d)
 
 

@@ -25,7 +25,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..io.text import quoteattr
-from ..scene import sensor_of
+from ..scene import camera_of, sensor_of
 from .search import BestView
 
 _FILTERS = {
@@ -77,12 +77,12 @@ def _sensor_settings(best: BestView, scene: mi.Scene, sensor: int | mi.Sensor) -
         return dict(near=1e-2, far=1e4, size=(w, h), rfilter="", sampler="independent",
                     spp=DEFAULT_SPP)  # fmt: skip
     s = sensor_of(scene, sensor)
-    params = mi.traverse(s)
+    cam = camera_of(s)
     film = s.film()
     size = tuple(int(v) for v in film.size())
     return dict(
-        near=float(params["near_clip"]) if "near_clip" in params else 1e-2,
-        far=float(params["far_clip"]) if "far_clip" in params else 1e4,
+        near=cam.near_clip,
+        far=cam.far_clip,
         size=size,
         rfilter=_rfilter_xml(film),
         sampler=_SAMPLERS.get(s.sampler().class_name(), "independent"),
