@@ -71,7 +71,7 @@ def contours_panel() -> Path:
     """The paper's Fig. 10: apparent contours in red over scenes 1 and 3."""
     panels = []
     for name in ("scene1", "scene3"):
-        gb, _ = mi_npr.contours.render_contours(
+        gb, _ = mi_npr.render_contours(
             ROOT / "scenes_xml" / f"{name}.xml", width=320, height=240, spp=64
         )
         panels.append((mi_npr.io.to_rgb8(gb.beauty), f"mi-npr contours scenes_xml/{name}.xml"))
@@ -81,7 +81,7 @@ def contours_panel() -> Path:
 def raytree_panel() -> Path:
     panels = []
     for name in ("scene1.xml", "raytree_mirror_glass.xml"):
-        gb = mi_npr.raytree.render(ROOT / "scenes_xml" / name, width=400, height=300, spp=64)
+        gb = mi_npr.render_raytree(ROOT / "scenes_xml" / name, width=400, height=300, spp=64)
         panels.append((mi_npr.io.to_rgb8(gb.beauty), name))
     title = "ray-tree edges: real red, reflection blue, refraction green, shadow gray"
     return _figure(panels, "raytree_edges.png", (1, 2), (11, 4.4), 72, title)
@@ -110,8 +110,8 @@ def overview_panel() -> Path:
     path_xml = ROOT / "scenes_xml" / "scene1.xml"
     size = {"width": 400, "height": 300, "spp": 64}
     lines = mi_npr.render(path_xml, integrator="npr_lines", **size)
-    contours, _ = mi_npr.contours.render_contours(path_xml, **size)
-    edges = mi_npr.raytree.render(path_xml, **size)
+    contours, _ = mi_npr.render_contours(path_xml, **size)
+    edges = mi_npr.render_raytree(path_xml, **size)
     panels = [
         (mi_npr.io.to_rgb8(lines.beauty), "npr_lines: depth contours (eqs. 5.1-5.4)"),
         (mi_npr.io.to_rgb8(contours.beauty), "npr_contours: apparent contours of real objects"),
@@ -155,7 +155,7 @@ def svg_panel() -> Path:
     import tempfile
 
     w, h = 320, 240
-    gb, contours, paths, _ = mi_npr.contours.render_vector_contours(
+    gb, contours, paths, _ = mi_npr.render_vector_contours(
         ROOT / "scenes_xml" / "scene1.xml", width=w, height=h, spp=64
     )
     beauty = mi_npr.compose.raw_beauty(gb)

@@ -39,6 +39,7 @@ from . import (  # noqa: E402
     contours,
     cryptomatte,
     data,
+    drawings,
     foliage,
     io,
     kernels,
@@ -46,6 +47,12 @@ from . import (  # noqa: E402
     pipeline,
     raytree,
     viewpoint,
+)
+from .pipeline import (  # noqa: E402
+    render_contours,
+    render_layers,
+    render_raytree,
+    render_vector_contours,
 )
 from .render import render, render_gbuffer  # noqa: E402
 from .scene import camera_of, load_scene, object_table  # noqa: E402
@@ -67,6 +74,7 @@ __all__ = [
     "cryptomatte",
     "data",
     "dr",
+    "drawings",
     "foliage",
     "io",
     "kernels",
@@ -78,7 +86,11 @@ __all__ = [
     "pipeline",
     "raytree",
     "render",
+    "render_contours",
     "render_gbuffer",
+    "render_layers",
+    "render_raytree",
+    "render_vector_contours",
     "set_variant",
     "viewpoint",
 ]

@@ -317,11 +317,11 @@ def _done(row: Mapping[str, Any], job: Job, flags: Mapping[str, Any], outdir: Pa
 
 def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
     """The drawing parameters, each checked by the drawings that take it
-    (:func:`mi_npr.pipeline.drawing_params`), as sorted ``(name, value)`` pairs."""
-    from .pipeline import drawing_params
+    (:func:`mi_npr.drawings.split_params`), as sorted ``(name, value)`` pairs."""
+    from .drawings import split_params
 
     out: dict[str, Any] = {}
-    for taken in drawing_params(drawings, params, "batch").values():
+    for taken in split_params(drawings, params, "batch").values():
         out.update(taken)
     return tuple(sorted(out.items()))
 

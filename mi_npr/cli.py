@@ -142,9 +142,9 @@ def _layer_params() -> dict[str, tuple]:
 
         if mi_npr.LLVM is None or mi_npr._api.STARTUP_ERROR is not None:
             return {}
-        from .pipeline import LAYERS, layer_params
+        from .drawings import DRAWINGS
 
-        return {layer: layer_params(layer) for layer in LAYERS}
+        return {name: d.params for name, d in DRAWINGS.items()}
     except Exception:
         return {}
 

@@ -87,3 +87,19 @@ def with_overlay(gb: GBuffer, alpha: Any, color: Sequence[float]) -> GBuffer:
 def raw_beauty(gb: GBuffer) -> np.ndarray:
     """The beauty before any overlay: ``beauty.R/G/B`` if present, else ``R G B``."""
     return gb.stack(L.RAW_RGB) if L.RAW_RGB[0] in gb else gb.beauty
+
+
+#: Black ink on white paper (linear RGB).
+INK, PAPER = (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
+
+
+def lines_on_paper(
+    gb: GBuffer, line_color: Sequence[float] = INK, paper: Sequence[float] = PAPER
+) -> np.ndarray:
+    """The ``lines`` layer of ``gb`` as ``line_color`` on ``paper``: (H, W, 3) linear RGB, the
+    picture of ``<stem>_lines.png``."""
+    if L.LINES not in gb:
+        raise ParameterError(f"the G-buffer has no {L.LINES!r} layer (render with npr_lines)")
+    h, w = gb.shape
+    sheet = np.broadcast_to(np.asarray(paper, np.float32).reshape(1, 1, 3), (h, w, 3))
+    return over(sheet, gb.numpy(L.LINES), line_color)

@@ -10,9 +10,10 @@ afterwards (``film.bitmap()``, ``film.write()``); an ``rgba`` film adds ``A`` af
 ``mi_npr.render(scene)`` returns the same layers as a :class:`~mi_npr.gbuffer.GBuffer`, with
 integer layers kept as uint32.
 
-Subclasses declare ``PLUGIN`` (the XML name), ``PARAMS`` (see :mod:`mi_npr.params`) and
-override :meth:`post` and :meth:`aov_names`. Plugins hold no algorithm: ``post`` calls library
-functions that serve the CLI and notebooks too.
+Subclasses declare ``PLUGIN`` (the XML name) and ``DRAWING``, the drawing of the registry
+(:mod:`mi_npr.drawings`) that they draw, whose parameter table is their ``PARAMS`` and whose
+function is their :meth:`post`; they list their channels in :meth:`aov_names`. Plugins hold no
+algorithm: the drawing's function serves the CLI, batches and notebooks too.
 
 Mitsuba binds Python integrators to the variant active when the class is defined, which is why
 this module is reloaded by :func:`mi_npr._variant.register_plugins` on every variant change.
@@ -27,7 +28,9 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from . import cryptomatte
 from . import layers as L
+from .drawings import DRAWINGS, Drawing
 from .errors import ParameterError
 from .gbuffer import GBuffer
 from .params import Param, read_props
@@ -99,7 +102,7 @@ def develop_into_film(film: mi.Film, gb: GBuffer, aovs: Sequence[str]) -> mi.Ten
 
 def _refuse_other_objects(plugin: str, props: mi.Properties) -> None:
     """A nested object that is not an integrator (a ``<bsdf>`` put inside the integrator by
-    mistake) is an error naming it, not silently ignored (issue 18)."""
+    mistake) is an error naming it, not silently ignored."""
     kinds = ("BSDF", "Emitter", "Shape", "Texture", "Sensor", "Medium", "Film", "Sampler")
     for key in props.keys():
         v = props.get(key)
@@ -122,6 +125,8 @@ class NprIntegrator(mi.SamplingIntegrator):
     """Common machinery; see the module docstring. Not registered as a plugin itself."""
 
     PLUGIN: ClassVar[str] = "npr_integrator"
+    #: The drawing this plugin draws (``None``: the G-buffer alone).
+    DRAWING: ClassVar[Drawing | None] = None
     PARAMS: ClassVar[tuple[Param, ...]] = ()
 
     def __init__(self, props: mi.Properties) -> None:
@@ -135,6 +140,8 @@ class NprIntegrator(mi.SamplingIntegrator):
         self.params: dict[str, Any] = read_props(
             self.PLUGIN, (*self.PARAMS, CRYPTOMATTE), props, lambda v: isinstance(v, mi.Object)
         )
+        if self.DRAWING is not None:  # the rules between parameters (near < far)
+            self.DRAWING.check(self.params, self.PLUGIN)
 
     # ------------------------------------------------------------ the pipeline
     def aov_names(self) -> list[str]:
@@ -143,13 +150,13 @@ class NprIntegrator(mi.SamplingIntegrator):
 
     def crypto_aovs(self) -> list[str]:
         """The Cryptomatte channels, last in every integrator's list when ``cryptomatte`` is on."""
-        from .cryptomatte import aov_names
+        return cryptomatte.aov_names() if self.params.get("cryptomatte") else []
 
-        return aov_names() if self.params.get("cryptomatte") else []
-
-    def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
-        """Add this integrator's layers to ``gb`` (and composite onto R, G, B)."""
-        return gb
+    def post(self, session: SceneSession, gb: GBuffer) -> GBuffer:
+        """Add this integrator's drawing to ``gb`` (its layers, composited onto R, G, B)."""
+        if self.DRAWING is None:
+            return gb
+        return self.DRAWING.draw(session, gb, self.params).gbuffer
 
     def npr_gbuffer(
         self,
@@ -166,11 +173,9 @@ class NprIntegrator(mi.SamplingIntegrator):
             require_jit(self.PLUGIN)
             session = SceneSession(scene, sensor_of(scene, sensor), source, check_spp(spp))
         gb = render_gbuffer(session, beauty=self.beauty, spp=spp, seed=seed)
-        gb = self.post(session.scene, session.sensor, gb)
+        gb = self.post(session, gb)
         if self.params.get("cryptomatte"):
-            from .cryptomatte import add_cryptomatte
-
-            gb = add_cryptomatte(gb, session.scene, session.sensor, spp, seed)
+            gb = DRAWINGS["cryptomatte"].draw(session, gb, {}, seed=seed, spp=spp).gbuffer
         return gb.with_metadata(**{"mi_npr/integrator": self.PLUGIN})
 
     def render(

@@ -66,40 +66,19 @@ from __future__ import annotations
 import mitsuba as mi
 
 from mi_npr import layers as L
-from mi_npr.contours import ID_MODES, METHODS, overlay
-from mi_npr.drawing import selection_params
-from mi_npr.gbuffer import GBuffer
+from mi_npr.drawings import DRAWINGS
 from mi_npr.integrator import NprIntegrator
-from mi_npr.kernels.ink import line_width
-from mi_npr.params import Param, one_of, rgb_color
 
 
 class NprContoursIntegrator(NprIntegrator):
     """Apparent contours over a beauty render (see the module docstring for the manual)."""
 
     PLUGIN = "npr_contours"
-    PARAMS = (
-        Param("method", str, "border", "border or code_direction", one_of(METHODS)),
-        *selection_params(ID_MODES),
-        Param("color", tuple, (1.0, 0.0, 0.0), "linear RGB of the contours", rgb_color),
-        Param("line_width", float, 1.0, "width of the drawn contours, in pixels", line_width),
-    )
+    DRAWING = DRAWINGS["contours"]
+    PARAMS = DRAWING.params
 
     def aov_names(self) -> list[str]:
         return [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
-
-    def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
-        out, _ = overlay(
-            gb,
-            scene,
-            method=self.params["method"],
-            id_mode=self.params["id_mode"],
-            color=self.params["color"],
-            only=self.params["only"],
-            ignore=self.params["ignore"],
-            line_width=self.params["line_width"],
-        )
-        return out
 
 
 mi.register_integrator("npr_contours", lambda props: NprContoursIntegrator(props))

@@ -76,9 +76,9 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
      - integer
      - 3
      - Anti-aliasing: the lines are computed from ``line_aa`` x ``line_aa`` rays per pixel and
-       box-filtered to gray levels (1 = the pixel-centre G-buffer, aliased). 3 by measurement:
-       against 8 x 8 it leaves a fifth of the error of 1 ray at ~2x the time of 2 x 2 (see
-       :mod:`mi_npr.antialias`, which also tells how this meets eqs. 5.1-5.4).
+       box-filtered to gray levels (1 = the pixel-centre G-buffer, aliased). 3: against 8 x 8
+       it leaves a fifth of the error of 1 ray (see :mod:`mi_npr.antialias`, which also tells
+       how this meets eqs. 5.1-5.4).
    * - ``near``, ``far``
      - float
      - unset
@@ -111,8 +111,9 @@ G-buffer channels ``Z P.X P.Y P.Z N.X N.Y N.Z object_id.V prim_id.V`` (then ``le
 of every mi-npr integrator that draws on the beauty (its own layers, the G-buffer, the raw
 beauty). The sensor's film holds the same channels afterwards. ``mi-npr render`` writes every
 layer to the EXR, the composited beauty to the PNG and the drawing alone (black ink on white, or
-``--line-color`` on ``--paper``) to ``<stem>_lines.png``; ``--line-width``, ``--line-aa`` and
-``--line-color`` override this plugin's parameters (:meth:`NprLinesIntegrator.set_params`).
+``--line-color`` on ``--paper``) to ``<stem>_lines.png``; every parameter is also a flag
+(``--line-width``, ``--line-aa``, ``--line-color``, ...) over the XML's value; the table is the
+``lines`` drawing's (:data:`mi_npr.drawings.DRAWINGS`).
 
 XML::
 
@@ -132,63 +133,20 @@ from __future__ import annotations
 import mitsuba as mi
 
 from mi_npr import layers as L
-from mi_npr.antialias import aa_factor, check_aa_width
-from mi_npr.drawing import add_lines, selection_params
-from mi_npr.errors import ParameterError
-from mi_npr.gbuffer import GBuffer
+from mi_npr.drawings import DRAWINGS
 from mi_npr.integrator import NprIntegrator
-from mi_npr.kernels import LINES_PARAMS
-from mi_npr.kernels.depth_lines import check_range
-from mi_npr.params import Param, coerce, rgb_color
-
-_LINE_COLOR = Param(
-    "line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)", rgb_color
-)
-#: Measured (issue 19, cornell_box and scene4 at 320x240): the mean |error| of the lines layer
-#: against 8 x 8 rays per pixel, relative to its mean ink, is 0.86-1.5 with 1 ray, 0.25-0.33
-#: with 2 x 2, 0.19 with 3 x 3 and 0.16-0.23 with 4 x 4, at 17-20, 36-56 and 69-128 ms.
-LINE_AA_DEFAULT = 3
-_LINE_AA = Param(
-    "line_aa", int, LINE_AA_DEFAULT, "rays per pixel side for anti-aliased lines", aa_factor
-)
 
 
 class NprLinesIntegrator(NprIntegrator):
     """Depth lines over the beauty (see the module docstring for the manual)."""
 
     PLUGIN = "npr_lines"
-    # The chain's parameters with line_color before near and far, as the manual lists them.
-    PARAMS = (
-        *LINES_PARAMS[:-2],
-        _LINE_COLOR,
-        _LINE_AA,
-        *LINES_PARAMS[-2:],
-        *selection_params(),
-    )
-
-    def __init__(self, props: mi.Properties) -> None:
-        super().__init__(props)
-        # near < far is a rule between two parameters: check it when the scene loads.
-        check_range(self.params["near"], self.params["far"], self.PLUGIN)
-        check_aa_width(self.params["line_width"], self.params["line_aa"], self.PLUGIN)
+    DRAWING = DRAWINGS["lines"]
+    PARAMS = DRAWING.params
 
     def aov_names(self) -> list[str]:
         extra = [L.LEAF_ID] if self.params["leaf_edges"] else []
         return [L.LINES, *L.GBUFFER_AOVS, *extra, *L.RAW_RGB, *self.crypto_aovs()]
-
-    def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
-        return add_lines(scene, sensor, gb, self.params)
-
-    def set_params(self, **values: object) -> None:
-        """Override parameters after loading (the command line's ``--line-width`` and friends),
-        checked like the XML's."""
-        by_name = {p.name: p for p in self.PARAMS}
-        for name, value in values.items():
-            if name not in by_name:
-                raise ParameterError(f"{self.PLUGIN}: unknown parameter {name!r}")
-            self.params[name] = coerce(self.PLUGIN, by_name[name], value)
-        check_range(self.params["near"], self.params["far"], self.PLUGIN)
-        check_aa_width(self.params["line_width"], self.params["line_aa"], self.PLUGIN)
 
 
 mi.register_integrator("npr_lines", lambda props: NprLinesIntegrator(props))

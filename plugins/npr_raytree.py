@@ -81,51 +81,20 @@ from __future__ import annotations
 import mitsuba as mi
 
 from mi_npr import layers as L
-from mi_npr.contours.idmode import OBJECT_MODES
-from mi_npr.drawing import object_ids, selection_params
-from mi_npr.gbuffer import GBuffer
+from mi_npr.drawings import DRAWINGS
 from mi_npr.integrator import NprIntegrator
-from mi_npr.kernels.ink import line_width
-from mi_npr.params import Param, integer_range
-from mi_npr.raytree import LAYERS, add_raytree
-from mi_npr.raytree.lights import HARD, check_shadow_lights
-from mi_npr.raytree.tracer import MAX_DEPTH
-from mi_npr.scene import object_table
-
-_depth = integer_range(1, MAX_DEPTH)
+from mi_npr.raytree import LAYERS
 
 
 class NprRayTreeIntegrator(NprIntegrator):
     """Ray-tree signatures and classified edges (see the module docstring for the manual)."""
 
     PLUGIN = "npr_raytree"
-    PARAMS = (
-        Param("max_depth", int, 3, "levels of the ray trees", _depth),
-        Param(
-            "shadow_lights",
-            str,
-            HARD,
-            "lights of shadow edges: hard, all or names",
-            check_shadow_lights,
-        ),
-        *selection_params(OBJECT_MODES),
-        Param("line_width", float, 1.0, "width of the drawn edges, in pixels", line_width),
-    )
+    DRAWING = DRAWINGS["raytree"]
+    PARAMS = DRAWING.params
 
     def aov_names(self) -> list[str]:
         return [*LAYERS, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
-
-    def post(self, scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer) -> GBuffer:
-        p = self.params
-        return add_raytree(
-            scene,
-            sensor,
-            gb,
-            p["max_depth"],
-            ids=object_ids(scene, object_table(scene), p),
-            shadow_lights=p["shadow_lights"],
-            line_width=p["line_width"],
-        )
 
 
 mi.register_integrator("npr_raytree", lambda props: NprRayTreeIntegrator(props))

@@ -93,9 +93,9 @@ def test05_cli_flags_are_the_plugins_parameters():
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command").choices["contours"]
     flags = {o for a in sub._actions for o in a.option_strings}
-    from mi_npr.pipeline import layer_params
+    from mi_npr.drawings import DRAWINGS
 
-    for p in layer_params("contours"):
+    for p in DRAWINGS["contours"].params:
         assert "--" + p.name.replace("_", "-") in flags
     assert set(mi_npr.contours.ID_MODES) >= {"material", "silhouette"}
     assert {a.dest: tuple(a.choices) for a in sub._actions if a.choices} == {

@@ -71,8 +71,8 @@ def test03_max_depth_parameter(write_scene):
     assert three.numpy(L.EDGES_REFLECTION).any() and three.numpy(L.EDGES_REFRACTION).any()
     np.testing.assert_array_equal(one.numpy(L.EDGES_REAL), three.numpy(L.EDGES_REAL))
     # mi_npr.raytree.render reads the scene's max_depth, or takes its own
-    assert mi_npr.raytree.render(one_xml) == one
-    deeper = mi_npr.raytree.render(one_xml, max_depth=3)
+    assert mi_npr.render_raytree(one_xml) == one
+    deeper = mi_npr.render_raytree(one_xml, max_depth=3)
     np.testing.assert_array_equal(deeper.numpy(L.EDGES_REFRACTION), three.numpy(L.EDGES_REFRACTION))
 
 
@@ -96,18 +96,18 @@ def test04_bad_parameters_are_clear_errors(write_scene, param, message):
 
 def test05_raytree_render_on_any_scene(write_scene):
     plain = write_scene(SCENE, integrator='<integrator type="path"/>', name="plain.xml")
-    gb = mi_npr.raytree.render(plain, spp=2)
+    gb = mi_npr.render_raytree(plain, spp=2)
     assert gb.metadata["mi_npr/beauty"] == "PathIntegrator"
     scene = mi_npr.load_scene(plain)
     lay = _numpy(raytree_layers(scene, 0, 3))
     for name in LAYERS:
         np.testing.assert_array_equal(gb.numpy(name), lay[name], err_msg=name)
-    headlight = mi_npr.raytree.render(write_scene(SCENE, name="gbuf.xml"))  # npr_gbuffer, no beauty
+    headlight = mi_npr.render_raytree(write_scene(SCENE, name="gbuf.xml"))  # npr_gbuffer, no beauty
     assert headlight.metadata["mi_npr/beauty"] == "headlight"
     with pytest.raises(mi_npr.ParameterError, match="max_depth"):
-        mi_npr.raytree.render(plain, max_depth=0)
+        mi_npr.render_raytree(plain, max_depth=0)
     with pytest.raises(mi_npr.SceneError, match="no such file"):
-        mi_npr.raytree.render("no/such/scene.xml")
+        mi_npr.render_raytree("no/such/scene.xml")
 
 
 def test06_scalar_variants_get_a_clear_error(write_scene):

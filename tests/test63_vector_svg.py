@@ -180,7 +180,7 @@ def test05_cli_svg_image_modes_layers_and_the_png_overlay(sphere, tmp_path, mode
 
 
 def test06_scene1_svg_without_image_is_small():
-    gb, _, paths, strokes = mi_npr.contours.render_vector_contours(
+    gb, _, paths, strokes = mi_npr.render_vector_contours(
         SCENES / "scene1.xml", spp=1, width=640, height=480
     )
     text = mi_npr.io.svg_document(paths, gb.width, gb.height, strokes=strokes)

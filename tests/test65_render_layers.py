@@ -13,8 +13,9 @@ import pytest
 import mi_npr
 from mi_npr import cli
 from mi_npr import layers as L
+from mi_npr.drawings import DRAWINGS
 from mi_npr.io import read_exr
-from mi_npr.pipeline import LAYERS, layer_params, render_layers
+from mi_npr.pipeline import render_layers
 
 from .public_style import fifty, ground, room
 
@@ -140,13 +141,13 @@ def test05_flags_are_the_plugins_parameters(tmp_path, capsys):
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command").choices
     for command, layers in (
-        ("render", LAYERS),
+        ("render", DRAWINGS),
         ("contours", ["contours"]),
         ("raytree", ["raytree"]),
     ):
         flags = {o for a in sub[command]._actions for o in a.option_strings}
         for layer in layers:
-            for p in layer_params(layer):
+            for p in DRAWINGS[layer].params:
                 assert "--" + p.name.replace("_", "-") in flags, (command, p.name)
     for flag in ("--width", "--height", "--spp"):
         assert flag in {o for a in sub["best-view"]._actions for o in a.option_strings}

@@ -12,7 +12,7 @@ from PIL import Image
 import mi_npr
 from mi_npr import cli
 from mi_npr import layers as L
-from mi_npr.drawing import drawing
+from mi_npr.compose import lines_on_paper
 from mi_npr.io import read_exr, to_rgb8
 
 from .helpers import scene_xml
@@ -48,7 +48,7 @@ def test02_flags_reach_the_drawing(ball, tmp_path):
     params = json.loads(gb.metadata["mi_npr/lines"])
     assert params["line_width"] == 2.0 and params["line_aa"] == 2
     png = np.asarray(Image.open(out / "ball_lines.png"))
-    np.testing.assert_array_equal(png, to_rgb8(drawing(gb, (1, 0, 0), (0.5, 0.5, 0.5))))
+    np.testing.assert_array_equal(png, to_rgb8(lines_on_paper(gb, (1, 0, 0), (0.5, 0.5, 0.5))))
     assert np.all(png[gb.numpy(L.LINES) == 1] == (255, 0, 0))
     beauty = np.asarray(Image.open(out / "ball.png"))
     assert np.all(beauty[gb.numpy(L.LINES) == 1] == (255, 0, 0))  # the composite's colour too
@@ -82,4 +82,4 @@ def test03_errors_are_one_line_and_write_nothing(tmp_path, capsys):
 def test04_drawing_needs_lines():
     gb = mi_npr.GBuffer({L.Z: np.ones((2, 2), np.float32)})
     with pytest.raises(mi_npr.ParameterError, match=r"no 'lines\.V' layer"):
-        drawing(gb)
+        lines_on_paper(gb)

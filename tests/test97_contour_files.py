@@ -7,7 +7,8 @@ import filecmp
 
 import mi_npr
 from mi_npr import cli
-from mi_npr.contours import render_contours, vectorize
+from mi_npr.contours import vectorize
+from mi_npr.pipeline import render_contours
 
 from .helpers import SCENES
 

@@ -8,16 +8,19 @@
   Douglas-Peucker), for SVG; :func:`trace_strokes` does lines and edge masks (:mod:`.vector`).
 - :func:`overlay` adds the ``contour`` layer to a G-buffer and draws the contours in red over its
   beauty (the paper's Fig. 10); ``id_mode`` chooses what one object is (:mod:`.idmode`).
+
+Rendering a scene and drawing its contours in one call is the pipeline's
+(:func:`mi_npr.render_contours`, the ``contours`` drawing).
 """
 
 from __future__ import annotations
 
 from .contour import Contour
 from .idmode import ID_MODES, IdMap, id_map
-from .overlay import mode_ids, overlay, render_contours
+from .overlay import mode_ids, overlay
 from .refine import TraceStats, trace_scene
 from .trace import METHODS, contour_layer, contour_mask, trace
-from .vector import VectorPath, render_vector_contours, stroke_layers, trace_strokes, vectorize
+from .vector import VectorPath, stroke_layers, trace_strokes, vectorize
 
 __all__ = [
     "ID_MODES",
@@ -31,8 +34,6 @@ __all__ = [
     "id_map",
     "mode_ids",
     "overlay",
-    "render_contours",
-    "render_vector_contours",
     "stroke_layers",
     "trace",
     "trace_scene",

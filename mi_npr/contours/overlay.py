@@ -9,9 +9,7 @@ beauty (kept in ``beauty.R/G/B``, see :mod:`mi_npr.compose`).
 from __future__ import annotations
 
 import json
-import os
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Sequence
 
 import mitsuba as mi
 import numpy as np
@@ -139,41 +137,3 @@ def overlay(
         }
     )
     return out, contours
-
-
-def render_contours(
-    scene: str | os.PathLike[str] | mi.Scene,
-    *,
-    sensor: int = 0,
-    spp: int | None = None,
-    seed: int = 0,
-    method: str | None = None,
-    id_mode: str | None = None,
-    color: Sequence[float] | None = None,
-    defines: Mapping[str, Any] | None = None,
-    **more: Any,
-) -> tuple[GBuffer, list[Contour]]:
-    """Render ``scene`` and :func:`overlay` its contours: ``mi-npr contours`` from Python (the
-    ``contours`` drawing of :func:`mi_npr.pipeline.render_layers`, ``R G B`` its picture).
-
-    ``method``, ``id_mode`` and ``color`` left at ``None`` take the values of the scene's
-    ``npr_contours`` integrator when it has one, else the defaults (``border``, ``shape``, red).
-    ``spp`` sets the beauty's samples per pixel (and the XML's ``spp`` default when it declares
-    one, like :func:`mi_npr.render`); ``defines`` and the other keyword arguments fill the XML's
-    ``<default>``s.
-    """
-    from ..pipeline import render_layers
-    from ..scene import merge_defines
-
-    given = {"method": method, "id_mode": id_mode, "color": color}
-    r = render_layers(
-        scene,
-        ["contours"],
-        {k: v for k, v in given.items() if v is not None},
-        scene_drawings=False,
-        sensor=sensor,
-        spp=spp,
-        seed=seed,
-        defines=merge_defines(defines, more),
-    )
-    return r.drawing("contours"), r.contours

@@ -325,49 +325,10 @@ def stroke_layers(
     return out
 
 
-def render_vector_contours(
-    scene: Any,
-    *,
-    sensor: int = 0,
-    spp: int | None = None,
-    seed: int = 0,
-    method: str | None = None,
-    id_mode: str | None = None,
-    color: Any = None,
-    tolerance: float = 0.25,
-    defines: Mapping[str, Any] | None = None,
-    **more: Any,
-) -> tuple[GBuffer, list, list[VectorPath], dict]:
-    """:func:`mi_npr.contours.render_contours` plus the vector paths of its contours (rays cast
-    into the same scene) and the stroke layers: ``(gb, contours, paths, strokes)``, what
-    ``mi-npr contours`` writes."""
-    from ..scene import merge_defines
-    from ..session import SceneSession
-    from .overlay import render_contours
-
-    session = SceneSession.open(scene, sensor=sensor, spp=spp, defines=merge_defines(defines, more))
-    loaded = session.scene
-    gb, contours = render_contours(
-        loaded,
-        sensor=sensor,
-        spp=session.spp,
-        seed=seed,
-        method=method,
-        id_mode=id_mode,
-        color=color,
-    )
-    if session.source is not None:
-        gb = gb.with_metadata(**{"mi_npr/scene": session.source})
-    mode = gb.metadata.get("mi_npr/contour_id_mode", "shape")
-    paths = vectorize(gb, loaded, sensor=sensor, id_mode=mode, tolerance=tolerance)
-    return gb, contours, paths, stroke_layers(gb, tolerance)
-
-
 __all__ = [
     "RayIds",
     "VectorPath",
     "douglas_peucker",
-    "render_vector_contours",
     "stroke_layers",
     "trace_strokes",
     "vectorize",

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import layers as L
-from ..compose import raw_beauty
+from ..compose import INK, PAPER, lines_on_paper, raw_beauty
 from ..gbuffer import GBuffer
 from ._atomic import atomic_output, check_writable_dir, output_set
 from .exr import describe, read_exr, write_exr
@@ -29,12 +29,10 @@ def write_outputs(
     ``line_color`` ink (default black) on ``paper`` (default white), linear RGB. Each file is
     written under a temporary name and renamed when complete; the drawing is computed before
     any file is written, so bad colours leave no output."""
-    from ..drawing import INK, PAPER, drawing
-
     d = check_writable_dir(outdir, create=True)
     sheet = None
     if L.LINES in gb:
-        sheet = drawing(gb, INK if line_color is None else line_color, paper or PAPER)
+        sheet = lines_on_paper(gb, INK if line_color is None else line_color, paper or PAPER)
     with output_set():  # all or none
         out = [write_exr(d / f"{stem}.exr", gb), write_png(d / f"{stem}.png", gb.beauty)]
         if sheet is not None:
@@ -67,7 +65,6 @@ def write_layered_outputs(
     never overwrite ``render``'s files. Everything is computed before the first file is
     written; the files are replaced all together or not at all (:func:`output_set`).
     """
-    from ..drawing import INK, PAPER, drawing
     from ..errors import ParameterError
     from .svg import SVG_IMAGE
 
@@ -82,7 +79,7 @@ def write_layered_outputs(
     else:
         files += [(f"{stem}.exr", gb), (f"{stem}.png", gb.beauty)]
         if L.LINES in gb:
-            sheet = drawing(gb, INK if line_color is None else line_color, paper or PAPER)
+            sheet = lines_on_paper(gb, INK if line_color is None else line_color, paper or PAPER)
             files.append((f"{stem}_lines.png", sheet))
         for name in ("contours", "raytree"):
             if name in result.pictures:

@@ -8,14 +8,15 @@ a real contour, a shadow, a reflection or a refraction edge (``edges.*`` layers)
 
 Modules: :mod:`.lights` (light numbers, shadow rays), :mod:`.tracer` (the wavefront tracer and the
 hash), :mod:`.signature` (strings), :mod:`.edges` (classification), :mod:`.render` (the image pass,
-the overlay, :func:`render`).
+the overlay). Rendering a scene with its ray-tree edges in one call is the pipeline's
+(:func:`mi_npr.render_raytree`, the ``raytree`` drawing).
 """
 
 from __future__ import annotations
 
 from .edges import classify_edges
 from .lights import LightTable, light_table
-from .render import COLORS, LAYERS, add_raytree, overlay, raytree_layers, render
+from .render import COLORS, LAYERS, add_raytree, overlay, raytree_layers
 from .signature import format_signature, object_letters, signature, signatures
 from .tracer import MAX_DEPTH, Nodes, Trees, trace_trees
 
@@ -33,7 +34,6 @@ __all__ = [
     "object_letters",
     "overlay",
     "raytree_layers",
-    "render",
     "signature",
     "signatures",
     "trace_trees",

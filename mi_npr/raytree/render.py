@@ -9,8 +9,6 @@ One wavefront traces both ray sets: the W x H pixel-centre rays (the G-buffer's 
 
 from __future__ import annotations
 
-import os
-from collections.abc import Mapping
 from typing import Any
 
 import drjit as dr
@@ -21,7 +19,7 @@ from .. import layers as L
 from ..compose import with_overlays
 from ..gbuffer import GBuffer
 from ..raycast import film_grid, film_size, pixel_rays, require_jit
-from ..scene import merge_defines, object_table, sensor_of
+from ..scene import object_table, sensor_of
 from ..session import SceneSession
 from .edges import any_corner, as_image, classify_edges
 from .lights import HARD, light_table
@@ -149,37 +147,3 @@ def add_raytree(
     out = overlay(gb.with_layers(new), line_width)
     meta = {"mi_npr/raytree_max_depth": max_depth, "mi_npr/raytree_shadow_lights": shadow_lights}
     return out.with_metadata(**meta)
-
-
-def render(
-    scene: str | os.PathLike[str] | mi.Scene,
-    *,
-    max_depth: int | None = None,
-    sensor: int = 0,
-    spp: int | str | None = None,
-    seed: int = 0,
-    defines: Mapping[str, Any] | None = None,
-    **more: Any,
-) -> GBuffer:
-    """Render ``scene`` with the ray-tree layers and overlay, whatever its integrator:
-    ``mi-npr raytree`` from Python (the ``raytree`` drawing of
-    :func:`mi_npr.pipeline.render_layers`, ``R G B`` its picture).
-
-    The beauty comes from the scene's integrator (the nested one of an mi-npr integrator).
-    ``max_depth`` (and ``shadow_lights``, ``id_mode``, ``only``, ``ignore``) default to the
-    scene's ``npr_raytree`` integrator's, else 3 (``hard``, every object). ``defines`` and the
-    other keyword arguments fill the XML's ``<default>``s, as in :func:`mi_npr.render`.
-    """
-    from ..pipeline import render_layers
-
-    r = render_layers(
-        scene,
-        ["raytree"],
-        {} if max_depth is None else {"max_depth": max_depth},
-        scene_drawings=False,
-        sensor=sensor,
-        spp=spp,
-        seed=seed,
-        defines=merge_defines(defines, more),
-    )
-    return r.drawing("raytree")
