@@ -36,6 +36,8 @@ from typing import Any
 import numpy as np
 
 from .errors import NprError, ParameterError, for_terminal, one_line
+from .params import MAX_RETRIES, MAX_THREADS, MAX_WORKERS, Param, check_arg, integer_range
+from .session import RENDER_PARAMS
 
 
 @dataclass
@@ -125,6 +127,25 @@ def run_jobs(
 #: Scenes a worker keeps loaded (least recently used goes first).
 SCENE_CACHE = 4
 
+#: Where the jobs run (``mi-npr batch``, and ``mi-npr path`` with its frames as jobs).
+CLUSTER_PARAMS: tuple[Param, ...] = (
+    Param(
+        "workers",
+        int,
+        None,
+        "worker processes of the local cluster (default: one per core; 0: this process)",
+        integer_range(0, MAX_WORKERS),
+    ),
+    Param(
+        "threads_per_worker",
+        int,
+        None,
+        "Dr.Jit threads of each worker (default: the cores shared out)",
+        integer_range(1, MAX_THREADS),
+    ),
+    Param("retries", int, 0, "retries of a failed job", integer_range(0, MAX_RETRIES)),
+)
+
 
 @dataclass(frozen=True)
 class Job:
@@ -200,10 +221,10 @@ def _configure(settings: BatchSettings) -> None:
     """This process's variant and Dr.Jit thread cap (once; again only if they change)."""
     import mitsuba as mi
 
-    import mi_npr
+    from ._variant import set_variant
 
     if settings.variant and mi.variant() != settings.variant:
-        mi_npr.set_variant(settings.variant)
+        set_variant(settings.variant)
     if settings.threads and _THREADS[0] != settings.threads:
         import drjit as dr
 
@@ -387,18 +408,17 @@ def run(
 
     from .io import check_writable_dir
     from .io.manifest import MANIFEST, append_row, read_rows
-    from .params import CLI_PARAMS, check_arg
 
-    table = {p.name: p for p in CLI_PARAMS["batch"]}
+    table = {p.name: p for p in (*RENDER_PARAMS, *CLUSTER_PARAMS)}
 
-    def arg(flag: str, value: Any) -> Any:
-        return None if value is None else check_arg(f"batch {flag}", table[flag], value)
+    def arg(name: str, value: Any) -> Any:
+        return None if value is None else check_arg("batch", table[name], value)
 
-    width, height, spp = arg("--width", width), arg("--height", height), arg("--spp", spp)
-    seed, workers = arg("--seed", seed), arg("--workers", workers)
+    width, height, spp = arg("width", width), arg("height", height), arg("spp", spp)
+    seed, workers = arg("seed", seed), arg("workers", workers)
     threads_per_worker, retries = (
-        arg("--threads-per-worker", threads_per_worker),
-        arg("--retries", retries),
+        arg("threads_per_worker", threads_per_worker),
+        arg("retries", retries),
     )
     jobs, spec = plan(scenes, views)
     outdir = check_writable_dir(out, create=True)

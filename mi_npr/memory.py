@@ -29,7 +29,7 @@ import os
 import re
 import resource
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 from .errors import MemoryLimitError, ParameterError
@@ -161,9 +161,11 @@ def check_render(sensor: object, beauty: object | None, spp: int | None, seed: i
     table (``spp`` was checked by :func:`mi_npr.session.check_spp`), then memory. Returns the
     number of beauty passes to use (1 almost always), or raises :class:`ParameterError` /
     :class:`MemoryLimitError`."""
-    from .params import check_arg, cli_param
+    # Imported here: the command line reads --max-memory (parse_size) before Mitsuba starts.
+    from .params import check_arg, entry
+    from .session import RENDER_PARAMS
 
-    check_arg("render", replace(cli_param("render", "--seed"), name="seed"), seed)
+    check_arg("render", entry(RENDER_PARAMS, "seed"), seed)
     film = sensor.film()  # type: ignore[attr-defined]
     w, h = (int(v) for v in film.crop_size())
     n = spp if spp else int(sensor.sampler().sample_count())  # type: ignore[attr-defined]

@@ -1,13 +1,14 @@
 """Parameters: declared once (name, type, default, meaning, check), read from ``mi.Properties``,
 keyword arguments or the command line, and rejected with an error that names the plugin (or
-flag), the parameter and the value.
+function), the parameter and the value.
 
-One validation table (issue 18): every plugin declares its ``PARAMS`` with :class:`Param`, the
-command line's numeric flags are :data:`CLI_PARAMS`, and public functions check their arguments
-with :func:`check_arg` against the same rules. Every number must be finite, and every integer
-parameter must have a rule with an upper bound (a :class:`Param` of type ``int`` without a check
-is refused when it is declared), so no count can make a run hang. ``tests/test81`` is generated
-from :func:`all_tables`: each parameter with NaN, inf, negative, zero, huge and wrong-type values.
+This module is the type and its checks; it knows no drawing and no command-line flag. A table
+(a tuple of :class:`Param`) is owned by the library module whose functions check their
+arguments against it with :func:`check_arg`: each drawing's (:mod:`mi_npr.drawings`), the
+render settings (:data:`mi_npr.session.RENDER_PARAMS`), the batch's, the path's, best view's
+and the foliage's; the command line builds its flags from them. Every number must be finite,
+and every integer parameter must have a rule with an upper bound (a :class:`Param` of type
+``int`` without a check is refused when it is declared), so no count can make a run hang.
 
 Mitsuba does not complain about unknown parameters of Python plugins, so a typo such as
 ``<float name="tt" .../>`` would be silently ignored; :func:`read_props` rejects it.
@@ -239,6 +240,14 @@ def table(params: Sequence[Param]) -> str:
     return "\n".join(f"  {a:<22} {b:<7} {c:<10} {d}" for a, b, c, d in rows)
 
 
+def entry(table: Sequence[Param], name: str) -> Param:
+    """The parameter ``name`` of ``table``."""
+    for p in table:
+        if p.name == name:
+            return p
+    raise KeyError(name)
+
+
 def check_arg(who: str, p: Param, value: Any) -> Any:
     """A public function's argument checked against ``p`` (the same rules as the plugins'):
     the value converted to ``p.type``, or :class:`ParameterError` naming ``who`` and ``p``."""
@@ -254,76 +263,6 @@ def problem(p: Param, value: Any) -> str | None:
     return None
 
 
-#: The command line's numeric flags, by command (``mi-npr COMMAND --flag``): parsed with
-#: :func:`cli_type` so a bad value is a usage error naming the flag.
-#: --width/--height of every command that renders (whatever the scene's <default> names).
-_SIZE = (
-    Param("--width", int, None, "film width", integer_range(1, MAX_RES)),
-    Param("--height", int, None, "film height", integer_range(1, MAX_RES)),
-)
-
-#: Where the jobs of mi-npr batch and the frames of mi-npr path run (Dask).
-_CLUSTER = (
-    Param("--workers", int, None, "worker processes (0: this one)", integer_range(0, MAX_WORKERS)),
-    Param(
-        "--threads-per-worker",
-        int,
-        None,
-        "Dr.Jit threads per worker",
-        integer_range(1, MAX_THREADS),
-    ),
-    Param("--retries", int, 0, "retries of a failed job", integer_range(0, MAX_RETRIES)),
-)
-
-CLI_PARAMS: dict[str, tuple[Param, ...]] = {
-    "render": (
-        *_SIZE,
-        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
-        Param("--seed", int, 0, "sampler seed", seed_rule),
-    ),
-    "contours": (
-        *_SIZE,
-        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
-        Param("--seed", int, 0, "sampler seed", seed_rule),
-    ),
-    "raytree": (
-        *_SIZE,
-        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
-        Param("--seed", int, 0, "sampler seed", seed_rule),
-        Param("--max-depth", int, None, "ray-tree levels", integer_range(1, MAX_RAYTREE_DEPTH)),
-    ),
-    "best-view": (
-        *_SIZE,
-        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
-        Param("--depth", int, 3, "levels of subdivision", integer_range(0, MAX_VIEW_DEPTH)),
-        Param("--res", int, 128, "ID buffer long side", integer_range(1, MAX_RES)),
-    ),
-    "batch": (
-        *_SIZE,
-        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
-        Param("--seed", int, 0, "sampler seed", seed_rule),
-        *_CLUSTER,
-    ),
-    "path": (
-        *_SIZE,
-        Param("--spp", int, None, "samples per pixel", integer_range(1, MAX_SPP)),
-        Param("--seed", int, 0, "sampler seed", seed_rule),
-        Param("--frames", int, None, "frames of the path", integer_range(1, MAX_FRAMES)),
-        Param("--fps", int, 24, "video frames per second", integer_range(1, 240)),
-        Param("--degrees", float, 360.0, "orbit angle", real_range(0.0, 3600.0, open_lo=True)),
-        Param("--max-speed", float, 4.0, "degrees per frame", real_range(0.0, 180.0, open_lo=True)),
-        Param("--max-turn", float, 12.0, "degrees per frame", real_range(0.0, 180.0, open_lo=True)),
-        *_CLUSTER,
-    ),
-    "foliage": (
-        Param("--leaf-size", float, None, "leaf length", real_range(0.0, 1e6, open_lo=True)),
-        Param("--abstraction", float, None, "normal mixing", real_range(0.0, 1.0)),
-        Param("--hlps", int, None, "number of HLPs", integer_range(1, MAX_HLPS)),
-        Param("--seed", int, 0, "seed", seed_rule),
-    ),
-}
-
-
 #: The counts inside ``mi-npr batch --views SPEC`` (``orbit:N``, ``sphere:N``, ``best:K``, the
 #: cameras of a JSON file): checked like flags (:mod:`mi_npr.views`).
 VIEW_PARAMS: tuple[Param, ...] = (
@@ -332,52 +271,3 @@ VIEW_PARAMS: tuple[Param, ...] = (
     Param("best", int, 1, "best-rated views", integer_range(1, MAX_BEST)),
     Param("file", int, 1, "cameras in a JSON file", integer_range(1, MAX_VIEWS)),
 )
-
-
-def cli_param(command: str, flag: str) -> Param:
-    """The :data:`CLI_PARAMS` entry of ``flag`` of ``command``."""
-    return next(p for p in CLI_PARAMS[command] if p.name == flag)
-
-
-def cli_type(command: str, flag: str) -> Callable[[str], Any]:
-    """An ``argparse`` ``type=`` that parses ``flag``'s text and checks it against its table
-    entry; a bad value raises ``ArgumentTypeError`` (argparse names the flag)."""
-    import argparse
-
-    p = cli_param(command, flag)
-
-    def parse(text: str) -> Any:
-        try:
-            value: Any = int(text) if p.type is int else float(text)
-        except ValueError:
-            kind = "an integer" if p.type is int else "a number"
-            raise argparse.ArgumentTypeError(f"{text!r} is not {kind}") from None
-        why = problem(p, value)
-        if why:
-            raise argparse.ArgumentTypeError(f"{text!r}: {why}")
-        return coerce(flag, p, value)
-
-    return parse
-
-
-def all_tables() -> dict[str, tuple[Param, ...]]:
-    """Every parameter table: each plugin's ``PARAMS`` (module- or class-level), the lines
-    chain's and the command line's (for the generated test, so no parameter escapes it)."""
-    import importlib
-    import pkgutil
-
-    from . import plugins as plugin_pkg
-    from .kernels import LINES_PARAMS
-
-    tables: dict[str, tuple[Param, ...]] = {"lines": LINES_PARAMS}
-    for info in pkgutil.iter_modules(plugin_pkg.__path__):
-        mod = importlib.import_module(f"{plugin_pkg.__name__}.{info.name}")
-        found = [getattr(mod, "PARAMS", None)]
-        found += [getattr(v, "PARAMS", None) for v in vars(mod).values() if isinstance(v, type)]
-        for t in found:
-            if t and all(isinstance(p, Param) for p in t):
-                tables[info.name] = tuple(dict.fromkeys([*tables.get(info.name, ()), *t]))
-    for cmd, t in CLI_PARAMS.items():
-        tables[f"mi-npr {cmd}"] = t
-    tables["mi-npr batch --views"] = VIEW_PARAMS
-    return tables

@@ -39,10 +39,31 @@ import mitsuba as mi
 import numpy as np
 
 from .errors import InputError, ParameterError
-from .params import MAX_FRAMES, check_lookat
+from .params import MAX_FRAMES, Param, check_lookat, integer_range, real_range
 from .scene import camera_of, load_scene, sensor_of
 
 SceneLike = str | os.PathLike[str] | mi.Scene
+
+#: The settings of a path (``mi-npr path``; :func:`render_path`'s keyword arguments).
+PATH_PARAMS: tuple[Param, ...] = (
+    Param("frames", int, None, "frames of the path", integer_range(1, MAX_FRAMES)),
+    Param("fps", int, 24, "video frames per second", integer_range(1, 240)),
+    Param("degrees", float, 360.0, "orbit angle", real_range(0.0, 3600.0, open_lo=True)),
+    Param(
+        "max_speed",
+        float,
+        4.0,
+        "--explore: most degrees the camera moves per frame",
+        real_range(0.0, 180.0, open_lo=True),
+    ),
+    Param(
+        "max_turn",
+        float,
+        12.0,
+        "--explore: most degrees its direction of motion turns per frame",
+        real_range(0.0, 180.0, open_lo=True),
+    ),
+)
 
 
 @dataclass(frozen=True)

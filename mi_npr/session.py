@@ -24,13 +24,13 @@ import contextlib
 import os
 import threading
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import mitsuba as mi
 
 from .errors import ParameterError, SceneError, one_line
-from .params import check_arg, cli_param
+from .params import MAX_RES, MAX_SPP, Param, check_arg, entry, integer_range, seed_rule
 from .raycast import require_jit
 from .scene import (
     ObjectTable,
@@ -44,6 +44,15 @@ from .scene import (
 #: Mitsuba scenes must not be rendered from two threads at once.
 RENDER_LOCK = threading.RLock()
 
+#: The film and the sampler of any render, whatever the names of the XML's ``<default>``\ s:
+#: the keyword arguments of the render functions and the flags of every command that renders.
+RENDER_PARAMS: tuple[Param, ...] = (
+    Param("width", int, None, "film width (alone: keeps the aspect)", integer_range(1, MAX_RES)),
+    Param("height", int, None, "film height (alone: keeps the aspect)", integer_range(1, MAX_RES)),
+    Param("spp", int, None, "samples per pixel of the beauty", integer_range(1, MAX_SPP)),
+    Param("seed", int, 0, "sampler seed", seed_rule),
+)
+
 
 def check_spp(spp: int | str | None) -> int | None:
     """``spp`` checked against the validation table (:mod:`mi_npr.params`; a command-line string
@@ -55,7 +64,7 @@ def check_spp(spp: int | str | None) -> int | None:
             spp = int(spp)
         except ValueError:
             raise ParameterError(f"spp = {spp!r}: must be a positive integer") from None
-    return check_arg("render", replace(cli_param("render", "--spp"), name="spp"), spp)
+    return check_arg("render", entry(RENDER_PARAMS, "spp"), spp)
 
 
 def check_resolution(resolution: tuple[int | None, int | None] | None) -> tuple | None:

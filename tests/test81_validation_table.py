@@ -1,4 +1,4 @@
-"""Issue 18: one validation table. Generated from :func:`mi_npr.params.all_tables`: every
+"""One validation table. Generated from :func:`mi_npr.cli.tables.all_tables`: every
 parameter of every plugin, of the lines chain and every numeric CLI flag, with NaN, inf,
 negative, zero, huge and wrong-type values; so a new parameter cannot skip validation."""
 
@@ -14,9 +14,10 @@ import pytest
 import mi_npr
 from mi_npr import kernels as K
 from mi_npr.cli import build_parser
+from mi_npr.cli.tables import all_tables, command_tables
 from mi_npr.contours import trace
 from mi_npr.io import write_png, write_svg
-from mi_npr.params import CLI_PARAMS, Param, all_tables, coerce
+from mi_npr.params import Param, coerce
 
 from .helpers import scene_xml
 
@@ -70,7 +71,7 @@ def test03_each_parameter_with_each_bad_value(table, param, kind):
         assert isinstance(out, str)
 
 
-CLI_CASES = [(cmd, p) for cmd, params in CLI_PARAMS.items() for p in params]
+CLI_CASES = [(cmd, p) for cmd, params in command_tables().items() for p in params]
 _ARGS = {
     "render": ["x.xml", "-o", "out"],
     "contours": ["x.xml", "-o", "out"],
@@ -82,16 +83,17 @@ _ARGS = {
 }
 
 
-@pytest.mark.parametrize(("cmd", "param"), CLI_CASES, ids=[f"{c}{p.name}" for c, p in CLI_CASES])
+@pytest.mark.parametrize(("cmd", "param"), CLI_CASES, ids=[f"{c}--{p.name}" for c, p in CLI_CASES])
 @pytest.mark.parametrize("text", ["nan", "inf", "-1", "1e300", "99999999999999999999", "abc"])
 def test04_cli_flags_refuse_bad_values_naming_the_flag(cmd, param, text, capsys):
-    if text == "-1" and param.name == "--abstraction":
+    flag = "--" + param.name.replace("_", "-")
+    if text == "-1" and flag == "--abstraction":
         text = "-0.5"
     with pytest.raises(SystemExit) as e:
-        build_parser().parse_args([cmd, *_ARGS[cmd], param.name, text])
+        build_parser().parse_args([cmd, *_ARGS[cmd], flag, text])
     assert e.value.code == 2
     err = capsys.readouterr().err
-    assert f"argument {param.name}:" in err and "Traceback" not in err
+    assert f"argument {flag}:" in err and "Traceback" not in err
 
 
 @pytest.mark.parametrize(

@@ -67,8 +67,17 @@ import numpy as np
 
 from ..errors import InputError, ParameterError, check_input_file
 from ..io._atomic import atomic_output
-from ..params import check_arg, cli_param
+from ..params import MAX_HLPS, Param, check_arg, integer_range
 from .plant import Plant
+
+#: The number of HLPs asked for (at most MAX_HLPS; k-means keeps at most one per leaf).
+HLPS = Param(
+    "hlps",
+    int,
+    None,
+    "number of HLPs (default: one per cell of leaves)",
+    integer_range(1, MAX_HLPS),
+)
 
 #: The iso-value of the surface: a lone blob of weight 1 has its ellipsoid as surface.
 ISO = math.exp(-0.5)
@@ -454,7 +463,7 @@ def build_hlps(
         raise ParameterError(f"inside = {inside!r}: must lie in (0, 1]")
     if k is not None:
         # At most MAX_HLPS; k-means keeps at most one per leaf.
-        k = check_arg("build_hlps", replace(cli_param("foliage", "--hlps"), name="k"), k)
+        k = check_arg("build_hlps", replace(HLPS, name="k"), k)
     if not len(plant):
         z = np.zeros((0, 3))
         return HLPSet(z, z, np.zeros((0, 3, 3)), np.zeros(0), ISO, f"{plant.name} HLPs")

@@ -45,8 +45,8 @@ import numpy as np
 from ..errors import ParameterError
 from ..io import check_writable_dir, output_set, write_text
 from ..meshes import write_ply
-from ..params import check_arg, cli_param
-from .hlp import HLPSet, build_hlps
+from ..params import Param, check_arg, entry, real_range, seed_rule
+from .hlp import HLPS, HLPSet, build_hlps
 from .leaves import leaf_template
 from .plant import Plant, read_plant
 from .procedural import procedural_tree
@@ -285,11 +285,31 @@ def load_plant(source: str, seed: int = 0, leaves: str = "components") -> Plant:
 #: at any resolution a render can afford, and their count (coverage / size^2) explodes.
 MIN_LEAF_FRACTION = 1e-4
 
+#: The settings of :func:`make_scene` (``mi-npr foliage``) that a style does not fix.
+FOLIAGE_PARAMS: tuple[Param, ...] = (
+    Param(
+        "leaf_size",
+        float,
+        None,
+        "leaf primitive length (default: the style's)",
+        real_range(0.0, 1e6, open_lo=True),
+    ),
+    Param(
+        "abstraction",
+        float,
+        None,
+        "normal mixing in [0, 1] (default: the style's)",
+        real_range(0, 1),
+    ),
+    HLPS,
+    Param("seed", int, 0, "seed of HLPs and leaves", seed_rule),
+)
+
 
 def _check_leaf_size(plant: Plant, leaf_size: float | None) -> None:
     if leaf_size is None:
         return
-    leaf_size = check_arg("leaf_size", cli_param("foliage", "--leaf-size"), leaf_size)
+    leaf_size = check_arg("leaf_size", entry(FOLIAGE_PARAMS, "leaf_size"), leaf_size)
     lo, hi = plant.bbox()
     diag = float(np.linalg.norm(hi - lo))
     if leaf_size < MIN_LEAF_FRACTION * diag:

@@ -31,13 +31,21 @@ import numpy as np
 
 from .. import io
 from ..errors import SceneError
-from ..params import check_arg, cli_param
+from ..params import check_arg, entry
 from ..render import render
 from ..scene import camera_of, load_scene, merge_defines, sensor_of
 from . import idbuffer
 from .camera import plots_missing, sensor_xml, sphere_image
 from .measures import check_measure
-from .search import BestView, Viewing, check_shapes, fibonacci_sphere, search, viewing
+from .search import (
+    SEARCH_PARAMS,
+    BestView,
+    Viewing,
+    check_shapes,
+    fibonacci_sphere,
+    search,
+    viewing,
+)
 
 #: Extra viewpoints rated for the quality sphere picture (Fibonacci lattice, allowed side
 #: only): none by default, the search's own evaluations are drawn.
@@ -90,8 +98,8 @@ def write_best_view(
     no ``sphere`` where :func:`~mi_npr.viewpoint.plots_missing` says why).
     """
     check_measure(measure)
-    depth = check_arg("write_best_view", cli_param("best-view", "--depth"), depth)
-    res = check_arg("write_best_view", cli_param("best-view", "--res"), res)
+    depth = check_arg("write_best_view", entry(SEARCH_PARAMS, "depth"), depth)
+    res = check_arg("write_best_view", entry(SEARCH_PARAMS, "res"), res)
     scene = load_scene(scene_path, merge_defines(defines, more))
     if scene.sensors() and (resolution is not None or spp is not None):
         from ..session import resize_sensor  # --width/--height/--spp: the written film

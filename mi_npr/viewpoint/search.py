@@ -73,10 +73,22 @@ import numpy as np
 
 from ..errors import ParameterError, SceneError
 from ..memory import check_images
-from ..params import check_arg, cli_param
+from ..params import MAX_RES, MAX_VIEW_DEPTH, Param, check_arg, entry, integer_range
 from ..scene import camera_of, load_scene, sensor_of, shape_bbox
 from . import idbuffer
 from .measures import MEASURES, SparseAreas, Topology, check_measure
+
+#: The search's settings (``mi-npr best-view --depth --res``).
+SEARCH_PARAMS: tuple[Param, ...] = (
+    Param(
+        "depth",
+        int,
+        3,
+        "levels of subdivision of the viewing sphere's triangles",
+        integer_range(0, MAX_VIEW_DEPTH),
+    ),
+    Param("res", int, 128, "ID buffer size, long side", integer_range(1, MAX_RES)),
+)
 
 #: Default horizontal field of view (degrees) when the scene's sensor has none.
 DEFAULT_FOV = 45.0
@@ -417,8 +429,8 @@ def best_view(
     >>> bv.origin, bv.quality, bv.evaluations                         # doctest: +SKIP
     """
     check_measure(measure)
-    depth = check_arg("best_view", cli_param("best-view", "--depth"), depth)
-    res = check_arg("best_view", cli_param("best-view", "--res"), res)
+    depth = check_arg("best_view", entry(SEARCH_PARAMS, "depth"), depth)
+    res = check_arg("best_view", entry(SEARCH_PARAMS, "res"), res)
     for name, v in (("beam", beam), ("max_evaluations", max_evaluations)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ParameterError(f"{name} = {v!r}: must be a positive integer")

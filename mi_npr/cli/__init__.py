@@ -1,0 +1,157 @@
+"""The ``mi-npr`` command: parses arguments and calls the library, nothing else.
+
+One module per command (:mod:`.render`, :mod:`.contours`, :mod:`.raytree`, :mod:`.batch`,
+:mod:`.best_view`, :mod:`.path`, :mod:`.foliage`, :mod:`.info`), each with its ``NAME``, ``HELP``,
+the library's parameter tables its flags are built from (``TABLES``, :mod:`._common`),
+``add_arguments`` and ``run``; the drawing switches and their parameters come from the drawing
+registry (:data:`mi_npr.drawings.DRAWINGS`).
+
+Exit codes: 0 all succeeded, 1 something failed (each failure reported on one line), 2 usage
+error, 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); both remove the temporary files of
+unfinished outputs. ``--traceback`` shows the Python traceback of an unexpected error (for bug
+reports).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+from collections.abc import Sequence
+from importlib import metadata
+from types import ModuleType
+
+import mi_npr
+
+from ..data import resolve
+from ..errors import NprError, for_terminal, one_line
+from ..memory import ENV, set_max_memory
+
+PROG = "mi-npr"
+#: The commands, in the order ``--help`` lists them.
+NAMES = ("render", "contours", "raytree", "batch", "best-view", "path", "foliage", "info")
+
+
+def commands() -> dict[str, ModuleType] | None:
+    """The command modules by name; ``None`` when mi-npr cannot start (no usable LLVM).
+
+    They are imported here, not at the top: they import Dr.Jit, which aborts the process on an
+    unusable LLVM, and the command must report that problem in one line instead."""
+    if mi_npr.LLVM is None:
+        return None
+    from . import batch, best_view, contours, foliage, info, path, raytree, render
+
+    modules = (render, contours, raytree, batch, best_view, path, foliage, info)
+    return {m.NAME: m for m in modules}
+
+
+def _version() -> str:
+    def v(name: str) -> str:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return "not installed"
+
+    return f"{PROG} {mi_npr.__version__} (mitsuba {v('mitsuba')}, drjit {v('drjit')})"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The whole command line: global options and one sub-parser per command, every flag of a
+    parameter built from the library's tables. When mi-npr cannot start, the commands take no
+    arguments of their own (``main`` reports why before anything else)."""
+    p = argparse.ArgumentParser(
+        prog=PROG,
+        description="Non-photorealistic rendering for Mitsuba 3: exact G-buffers and lines.",
+    )
+    p.add_argument("--version", action="version", version=_version())
+    p.add_argument("--variant", help="Mitsuba variant (default: $MI_NPR_VARIANT or llvm_ad_rgb)")
+    p.add_argument("--traceback", action="store_true", help="show tracebacks of internal errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    mods = commands()
+    for name in NAMES:
+        if mods is None:
+            sub.add_parser(name)
+            continue
+        m = mods[name]
+        cmd = sub.add_parser(name, allow_abbrev=name not in _EXACT, help=m.HELP)
+        m.add_arguments(cmd)
+    return p
+
+
+#: Commands whose flags are never abbreviated (``--c`` is not ``--contours``): they take the
+#: drawings' many parameters, whose names share prefixes.
+_EXACT = ("render", "contours", "raytree", "batch", "path")
+
+
+def _remove_temps() -> None:
+    """Temporary files of unfinished outputs (``finally`` blocks removed most already)."""
+    if "mi_npr.io._atomic" in sys.modules:
+        sys.modules["mi_npr.io._atomic"].remove_live_temps()
+
+
+def _fail(message: str, code: int = 1) -> int:
+    print(f"{PROG}: error: {for_terminal(message)}", file=sys.stderr)
+    return code
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that every ``finally`` runs (temporary files go)."""
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise Terminated()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    # The commands' flags exist only once mi-npr starts: when it cannot, say why (in _run)
+    # rather than call those flags unknown.
+    args, unknown = parser.parse_known_args(argv)
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        return _run(parser, args, unknown, argv)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _run(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    unknown: list[str],
+    argv: Sequence[str] | None,
+) -> int:
+    try:
+        if mi_npr.LLVM is None:  # no usable LLVM: import_module deferred the error to us
+            mi_npr._llvm.configure()
+        if mi_npr._api.STARTUP_ERROR is not None:  # the variant asked for cannot be activated
+            raise mi_npr._api.STARTUP_ERROR
+        if unknown:
+            parser.parse_args(argv)  # a usage error naming the unknown arguments (exit 2)
+        if args.variant:
+            mi_npr.set_variant(args.variant)
+        if getattr(args, "max_memory", None):
+            set_max_memory(args.max_memory)
+            os.environ[ENV] = args.max_memory  # worker processes too
+        if hasattr(args, "scenes"):  # a bundled scene by name: `mi-npr render scene1`
+            args.scenes = [resolve(s) for s in args.scenes]
+        if args.command in ("best-view", "path"):
+            args.scene = resolve(args.scene)
+        return commands()[args.command].run(args)  # type: ignore[index]
+    except KeyboardInterrupt:
+        _remove_temps()
+        return _fail("interrupted", 130)
+    except Terminated:
+        _remove_temps()
+        return _fail("terminated", 128 + signal.SIGTERM)
+    except BrokenPipeError:  # `mi-npr info x.exr | head`: the reader left, nothing to report
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    except ImportError as e:  # LLVMNotFoundError, a broken install
+        return _fail(str(e).removeprefix("mi-npr: "))
+    except Exception as e:
+        if isinstance(e, NprError):
+            return _fail(str(e))
+        if args.traceback:
+            raise
+        return _fail(f"internal error: {type(e).__name__}: {one_line(e)}")

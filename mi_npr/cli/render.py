@@ -1,0 +1,90 @@
+"""``mi-npr render``: scenes with every drawing asked for, one EXR with every layer and a
+picture per drawing (:func:`mi_npr.pipeline.render_layers`,
+:func:`mi_npr.io.write_layered_outputs`)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..batch import check_unique_stems, run_jobs
+from ..drawings import DRAWINGS
+from ..io import check_writable_dir, write_layered_outputs
+from ..pipeline import render_layers
+from ..session import RENDER_PARAMS
+from ._common import (
+    add_drawings,
+    add_scenes,
+    asked_drawings,
+    drawing_values,
+    exit_code,
+    resolution,
+    result_line,
+    rgb,
+    spp_and_defines,
+)
+
+NAME = "render"
+HELP = "render scenes: one EXR with every layer, a PNG per drawing (--lines, --contours...)"
+#: The command's own parameter tables (its drawing flags come from the registry).
+TABLES = (RENDER_PARAMS,)
+SVG_IMAGE_HELP = "the beauty in <stem>_contours.svg: embedded once (default), linked, or none"
+
+
+def add_svg_image(cmd: argparse.ArgumentParser, help: str) -> None:
+    cmd.add_argument("--svg-image", choices=("embed", "link", "none"), default="embed", help=help)
+
+
+def add_arguments(cmd: argparse.ArgumentParser) -> None:
+    add_scenes(cmd, NAME)
+    add_drawings(cmd, list(DRAWINGS))
+    cmd.add_argument(
+        "--paper",
+        type=rgb,
+        metavar="R,G,B",
+        help="paper colour of <stem>_lines.png (linear RGB, default white 1,1,1)",
+    )
+    add_svg_image(cmd, SVG_IMAGE_HELP)
+    cmd.add_argument(
+        "--no-beauty-in-svg", action="store_true", help="do not embed the beauty in the SVG"
+    )
+
+
+def render_scenes(args: argparse.Namespace, drawings: tuple[str, ...], only: str | None) -> int:
+    """``render`` (``only=None``) and its shorthands ``contours`` and ``raytree``: each scene
+    rendered and written as soon as it is done, one line each."""
+    check_unique_stems(args.scenes)
+    outdir = check_writable_dir(args.output, create=True)
+    spp, defines = spp_and_defines(args)
+    params = drawing_values(args)
+    progress = not args.no_progress
+
+    def job(scene: str) -> list[Path]:
+        result = render_layers(
+            scene,
+            drawings,
+            params,
+            scene_drawings=only is None,
+            seed=args.seed,
+            progress=progress,
+            spp=spp,
+            defines=defines,
+            resolution=resolution(args),
+        )
+        no_image = getattr(args, "no_beauty_in_svg", False)
+        return write_layered_outputs(
+            result,
+            outdir,
+            Path(scene).stem,
+            only=only,
+            line_color=params.get("line_color"),
+            paper=getattr(args, "paper", None),
+            svg_image="none" if no_image else getattr(args, "svg_image", "embed"),
+        )
+
+    results = run_jobs(args.scenes, job, progress, args.traceback, on_result=result_line)
+    return exit_code(results)
+
+
+def run(args: argparse.Namespace) -> int:
+    return render_scenes(args, asked_drawings(args), None)
