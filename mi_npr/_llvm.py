@@ -166,7 +166,7 @@ def wheel_libraries() -> list[str]:
     # recent enough library (--user, --target installs).
     found = glob.glob(os.path.join(sys.prefix, "lib", "libLLVM*.so*"))
     if not any((version_from_name(p) or 0) >= MIN_VERSION for p in found):
-        try:
+        try:  # imported here: importlib.metadata slows every start, and the glob usually finds it
             from importlib import metadata
 
             dist = metadata.distribution(WHEEL)

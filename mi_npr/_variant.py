@@ -17,6 +17,8 @@ import sys
 
 import mitsuba as mi
 
+import mi_npr.plugins as pkg
+
 from . import _llvm
 from .errors import ParameterError
 
@@ -25,7 +27,6 @@ DEFAULT_VARIANT = "llvm_ad_rgb"
 
 def plugin_modules() -> list[str]:
     """Names of the plugin modules shipped in ``mi_npr.plugins`` (``npr_gbuffer``, ...)."""
-    import mi_npr.plugins as pkg
 
     return sorted(m.name for m in pkgutil.iter_modules(pkg.__path__) if m.name.startswith("npr_"))
 

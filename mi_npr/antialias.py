@@ -38,6 +38,7 @@ import numpy as np
 
 from . import layers as L
 from .errors import ParameterError
+from .foliage.leaves import leaf_id_layer
 from .gbuffer import GBuffer
 from .kernels import LINES_PARAMS, lines
 from .kernels._stencil import Grid
@@ -136,8 +137,6 @@ def antialiased_lines(
     check_aa_width(width, n)
     big = _mapped(supersampled_gbuffer(scene, sensor, n), ids)
     if params.get("leaf_edges"):
-        from .foliage.leaves import leaf_id_layer
-
         big = big.with_layers({L.LEAF_ID: leaf_id_layer(scene, big)})
     level = float(params.get("bright_fade", 0.0))
     sub = {**params, "line_width": width * n, "bright_fade": 0.0}

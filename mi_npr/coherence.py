@@ -34,7 +34,8 @@ import numpy as np
 
 from . import layers as L
 from .errors import ParameterError
-from .gbuffer import Camera
+from .gbuffer import Camera, GBuffer
+from .kernels import lines
 from .projection import project
 
 
@@ -145,7 +146,7 @@ def popping(
 def figure(curves: Mapping[str, Mapping[str, Any]]) -> Any:
     """A matplotlib figure of the per-frame popping of each named result of :func:`popping`,
     or ``None`` without matplotlib (the ``plots`` extra)."""
-    try:
+    try:  # imported here: matplotlib is optional (the plots extra) and slow to import
         import matplotlib
 
         if "matplotlib.pyplot" not in __import__("sys").modules:
@@ -185,7 +186,6 @@ def variant_lines(frame: Any, name: str, **params: Any) -> np.ndarray:
     eq. 5.1 gray levels as they are, or thresholded at ``t0`` (black/white), with or without
     the selective-dilation pre-filter (eqs. 5.3-5.4) and eq. 5.2. ``params`` are further
     :func:`mi_npr.kernels.lines` parameters (``c``, ``t``, ``t0``...)."""
-    from .kernels import lines
 
     if name not in VARIANTS:
         raise ParameterError(f"line variant {name!r}: expected one of {', '.join(VARIANTS)}")
@@ -201,7 +201,6 @@ def line_variants(frames: Sequence[Any], **params: Any) -> dict[str, dict]:
     """:func:`popping` of every line variant of :data:`VARIANTS` along ``frames`` (each with
     ``Z``, ``P`` and a camera): the thesis's claim that gray levels and the pre-filter reduce
     popping, measured. ``params`` go to :func:`variant_lines`."""
-    from .gbuffer import GBuffer
 
     out = {}
     for name in VARIANTS:

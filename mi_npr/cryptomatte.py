@@ -46,7 +46,9 @@ from . import layers as L
 from .errors import ParameterError
 from .gbuffer import GBuffer, to_numpy
 from .raycast import cast, pixel_rays
-from .scene import ObjectTable, object_table, sensor_of
+from .render import render_gbuffer
+from .scene import ObjectTable, merge_defines, object_table, sensor_of
+from .session import SceneSession
 
 OBJECT = L.CRYPTO_OBJECT
 MATERIAL = L.CRYPTO_MATERIAL
@@ -293,9 +295,6 @@ def render(
     """:func:`mi_npr.render` plus the Cryptomatte layers (what ``mi-npr render --cryptomatte``
     writes); the arguments are :func:`mi_npr.render`'s. A scene whose integrator already has
     ``cryptomatte`` on gets its layers once."""
-    from .render import render_gbuffer
-    from .scene import merge_defines
-    from .session import SceneSession
 
     session = SceneSession.open(scene, sensor=sensor, spp=spp, defines=merge_defines(defines, more))
     integrator = session.scene.integrator()

@@ -6,6 +6,7 @@ The CLI prints ``str(error)`` and exits with code 1 (or 2 for usage errors); a t
 from __future__ import annotations
 
 import os
+import re
 import stat
 from pathlib import Path
 
@@ -36,7 +37,6 @@ class OutputError(NprError):
 
 def one_line(exc: BaseException) -> str:
     """Mitsuba's messages span lines and start with ``[file.cpp:123]``: keep the useful part."""
-    import re
 
     text = str(exc).strip() or type(exc).__name__
     marker = "Traceback (most recent call last):"

@@ -45,7 +45,7 @@ def tensor_types() -> tuple[type, type]:
     """``(TensorXf, TensorXu)`` of the active JIT variant (LLVM's when none is active)."""
     if mi.variant() is not None and dr.is_jit_v(mi.Float):
         return mi.TensorXf, mi.TensorXu
-    from drjit.llvm.ad import TensorXf, TensorXu
+    from drjit.llvm.ad import TensorXf, TensorXu  # only when no JIT variant is active
 
     return TensorXf, TensorXu
 

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .errors import MemoryLimitError, ParameterError
+from .params import check_arg, entry
 
 #: Bytes per pixel of a render besides the beauty's samples (see the module docstring).
 PIXEL_BYTES = 160
@@ -131,6 +132,8 @@ class Estimate:
 
 def estimate(width: int, height: int, spp: int, beauty: bool = True) -> Estimate:
     """What a ``width x height`` render with ``spp`` beauty samples per pixel needs."""
+    # Imported here, like every Dr.Jit import of this module: the command line reads
+    # --max-memory (parse_size) before it knows that Dr.Jit can start.
     import drjit as dr
 
     pixels = int(width) * int(height)
@@ -161,9 +164,7 @@ def check_render(sensor: object, beauty: object | None, spp: int | None, seed: i
     table (``spp`` was checked by :func:`mi_npr.session.check_spp`), then memory. Returns the
     number of beauty passes to use (1 almost always), or raises :class:`ParameterError` /
     :class:`MemoryLimitError`."""
-    # Imported here: the command line reads --max-memory (parse_size) before Mitsuba starts.
-    from .params import check_arg, entry
-    from .session import RENDER_PARAMS
+    from .session import RENDER_PARAMS  # imported here: session imports Mitsuba (estimate)
 
     check_arg("render", entry(RENDER_PARAMS, "seed"), seed)
     film = sensor.film()  # type: ignore[attr-defined]
@@ -199,7 +200,7 @@ def render_passes(
     other ``spp - n`` samples take seeds other than ``seed``."""
     if passes <= 1 and first is None:
         return integrator.render(scene, sensor, seed=seed, spp=spp, develop=True, evaluate=True)
-    import drjit as dr
+    import drjit as dr  # imported here: see estimate
     import mitsuba as mi
 
     total = spp or int(sensor.sampler().sample_count())

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from plyfile import PlyData, PlyElement, PlyElementParseError, PlyListProperty, PlyParseError
 
 from .errors import InputError, check_input_file
 from .io._atomic import atomic_output
@@ -137,6 +138,7 @@ def weld_keys(V: np.ndarray, group: np.ndarray) -> np.ndarray:
 
 def components(meshes: Sequence[tuple[np.ndarray, np.ndarray]]) -> list[Parts]:
     """:class:`Parts` of meshes given as ``(F, V)`` arrays, all in one graph (module docstring)."""
+    # imported here: scipy.sparse slows the start of every command, most of which never need it
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
@@ -199,7 +201,6 @@ def write_ply(
     ``vertex_attrs`` adds float per-vertex properties after ``x y z`` (``{"nx": (n,) array, ...}``;
     :func:`read_ply` returns them in its ``extra`` dict). ``F`` may have no rows (a point set).
     """
-    from plyfile import PlyData, PlyElement
 
     V = np.asarray(V, dtype="<f4")
     F = np.asarray(F, dtype="<u4")
@@ -235,7 +236,6 @@ def read_ply(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, dict
     """``(V, F, extra)``: positions, triangles and any other per-vertex properties by name
     (``nx ny nz`` normals, ...). Faces are the first list property of the ``face`` element;
     polygons are fanned into triangles."""
-    from plyfile import PlyData, PlyElementParseError, PlyListProperty, PlyParseError
 
     p = Path(path)
     check_input_file(p)

@@ -16,11 +16,14 @@ JIT variants only (:func:`mi_npr.raycast.require_jit`).
 from __future__ import annotations
 
 import os
+import sys
+import time
 from collections.abc import Mapping
 from typing import Any
 
 import drjit as dr
 import mitsuba as mi
+from tqdm import tqdm
 
 from . import layers as L
 from ._version import __version__
@@ -114,7 +117,6 @@ def _render_in_passes(
     ~:data:`PASS_SECONDS` (at least ``passes``) through :func:`mi_npr.memory.render_passes`:
     each with its own seed, averaged weighted by their spp, the same estimator as one render of
     ``spp`` samples with other random numbers."""
-    import time
 
     t0 = time.perf_counter()
     probe = integrator.render(scene, sensor, seed=seed, spp=1, develop=True, evaluate=True)
@@ -123,7 +125,6 @@ def _render_in_passes(
     estimate = (time.perf_counter() - t0) * spp
     if estimate < PROGRESS_AFTER:
         return render_passes(integrator, scene, sensor, spp, seed, passes)
-    from tqdm import tqdm
 
     passes = max(passes, min(spp - 1, max(2, int(estimate / PASS_SECONDS))))
     with tqdm(total=spp, desc="beauty", unit="spp", leave=False) as bar:
@@ -146,7 +147,6 @@ def beauty_layers(
     (H, W) tensors. In ``passes`` renders when memory asks for it (:mod:`mi_npr.memory`); with
     ``progress`` (and stderr a terminal), a long render shows a bar with its ETA
     (:func:`_render_in_passes`)."""
-    import sys
 
     total = spp or sensor.sampler().sample_count()
     if progress and total >= 4 and sys.stderr.isatty():

@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import xml.etree.ElementTree as ET
 from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -28,6 +29,7 @@ import numpy as np
 
 from .errors import ParameterError, SceneError, check_input_file, one_line
 from .gbuffer import Camera
+from .raycast import require_jit
 
 
 def _define_value(name: str, value: Any) -> str:
@@ -93,7 +95,6 @@ def load_scene(
 
 def declared_defaults(path: str | os.PathLike[str]) -> set[str]:
     """Names of the ``<default>`` parameters an XML scene declares (its includes too)."""
-    import xml.etree.ElementTree as ET
 
     names: set[str] = set()
     todo, seen = [os.path.abspath(path)], set()
@@ -294,7 +295,6 @@ def _materials(names: dict[int, str], shapes: dict[int, mi.Shape]) -> tuple[dict
 
 def object_table(scene: mi.Scene) -> ObjectTable:
     """Build the :class:`ObjectTable` of ``scene`` (see the module docstring for the rules)."""
-    from .raycast import require_jit
 
     require_jit("the object table")
     shapes = list(scene.shapes())

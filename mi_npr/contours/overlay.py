@@ -18,6 +18,7 @@ from .. import layers as L
 from ..compose import raw_beauty, with_overlay
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
+from ..kernels import id_edges, widen_lines
 from .contour import Contour
 from .idmode import check_id_mode, id_map, split_globs
 from .trace import check_method, contour_layer, trace
@@ -56,7 +57,6 @@ def owned(ids: np.ndarray, depth: np.ndarray) -> np.ndarray:
     normalised over the frame's finite range, steps by more than :data:`CONTACT_STEP`, else
     the larger id. So the contour between two touching objects is 1 px, and an object's
     contour against the background (or an object far behind) lies on the object."""
-    from ..kernels import id_edges
 
     z = np.asarray(depth, np.float32)
     fin = np.isfinite(z)
@@ -121,8 +121,6 @@ def overlay(
     base = gb.with_layers({c: raw[..., i] for i, c in enumerate(L.RGB)})
     ink = (layer != 0).astype(np.float32)
     if line_width != 1.0:
-        from ..kernels import widen_lines
-
         ink = np.asarray(widen_lines(ink, float(line_width)))
     out = with_overlay(base, ink, color).with_layers({L.CONTOUR: layer})
     out = out.with_metadata(

@@ -221,6 +221,7 @@ def _cycle_min(val: np.ndarray, succ: np.ndarray) -> np.ndarray:
     """The minimum of ``val`` over each cycle of the permutation ``succ``: the cycles are the
     connected components of the graph ``i -> succ[i]`` (scipy, linear time)."""
     n = len(succ)
+    # imported here: scipy.sparse slows the start of every command, most of which never trace
     from scipy.sparse import csr_matrix
     from scipy.sparse.csgraph import connected_components
 
@@ -240,7 +241,7 @@ def _cycle_order(succ: np.ndarray, is_rep: np.ndarray, reps: np.ndarray) -> np.n
     keep = ~is_rep[succ]
     indptr = np.concatenate([[0], np.cumsum(keep), [keep.sum() + len(reps)]])
     cols = np.concatenate([succ[keep], reps])  # one edge per row, then the root's (ascending)
-    from scipy.sparse import csr_matrix
+    from scipy.sparse import csr_matrix  # imported here: see _components
     from scipy.sparse.csgraph import depth_first_order
 
     graph = csr_matrix((np.ones(len(cols), np.int8), cols, indptr), shape=(n + 1, n + 1))

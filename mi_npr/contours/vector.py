@@ -32,10 +32,18 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import mitsuba as mi
 import numpy as np
 
+from .. import layers as L
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
+from ..raycast import cast, pixel_rays, require_jit
+from ..raytree.render import COLORS
+from ..scene import object_table, sensor_of
+from .idmode import check_id_mode
+from .idmode import id_map as make_id_map
+from .overlay import mode_ids
 from .trace import Grid, check_ids, crack_cycles
 
 #: Pixel offsets of the crack sides d = 0..3 (+x, +y, -x, -y).
@@ -65,10 +73,6 @@ class RayIds:
     def __init__(
         self, scene: Any, sensor: Any = 0, id_mode: str = "shape", id_map: Any = None
     ) -> None:
-        from ..raycast import require_jit
-        from ..scene import object_table, sensor_of
-        from .idmode import check_id_mode
-        from .idmode import id_map as make_id_map
 
         require_jit("vector contours")
         self.scene = scene
@@ -82,9 +86,6 @@ class RayIds:
             self.map = None
 
     def __call__(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        import mitsuba as mi
-
-        from ..raycast import cast, pixel_rays
 
         if len(x) == 0:
             return np.zeros(0, np.uint32)
@@ -200,8 +201,6 @@ def vectorize(
         raise ParameterError(f"iterations = {iterations!r}: must be an integer in 0..40")
     if isinstance(source, GBuffer):
         if id_mode != "shape":
-            from .overlay import mode_ids
-
             ids, names = mode_ids(source, scene, id_mode)
         else:
             ids, names = source.object_id, dict(source.objects)
@@ -310,8 +309,6 @@ def stroke_layers(
     """The GBuffer's line drawings as SVG stroke layers: ``lines`` (the ``lines.V`` layer above
     0.5, black) and each ray-tree edge class present (``edges_real``, ... in the overlay's
     colours), each as polylines (:func:`trace_strokes`)."""
-    from .. import layers as L
-    from ..raytree.render import COLORS
 
     out: dict[str, tuple[list[np.ndarray], tuple[float, float, float]]] = {}
     if L.LINES in gb:

@@ -60,10 +60,14 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+import mitsuba as mi
 import numpy as np
+from PIL import Image, UnidentifiedImageError
 
+from .. import layers as L
 from ..errors import InputError, ParameterError, check_input_file
 from ..meshes import write_ply
+from ..scene import object_table
 from .hlp import HLPSet
 from .plant import Plant, any_perpendicular, unit_rows
 
@@ -116,7 +120,6 @@ def _leaf_outline(n_side: int = 7) -> np.ndarray:
 
 def _alpha_outline(path: Path, rays: int = 16) -> np.ndarray:
     """The star-shaped outline of an RGBA image's alpha (>= 0.5), in [-0.5, 0.5]^2 (+x = u)."""
-    from PIL import Image, UnidentifiedImageError
 
     try:
         with Image.open(path) as im:
@@ -365,10 +368,6 @@ def leaf_id_layer(scene: object, gbuffer: object) -> np.ndarray:
 
     Derived from the G-buffer's exact ``object_id`` and ``prim_id`` (no second render).
     """
-    import mitsuba as mi
-
-    from .. import layers as L
-    from ..scene import object_table
 
     ids = np.asarray(gbuffer[L.OBJECT_ID])  # type: ignore[index]
     prim = np.asarray(gbuffer[L.PRIM_ID])  # type: ignore[index]

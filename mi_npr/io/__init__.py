@@ -9,11 +9,12 @@ from typing import Any
 
 from .. import layers as L
 from ..compose import INK, PAPER, lines_on_paper, raw_beauty
+from ..errors import ParameterError
 from ..gbuffer import GBuffer
 from ._atomic import atomic_output, check_writable_dir, output_set
 from .exr import describe, read_exr, write_exr
 from .png import linear_to_srgb, to_rgb8, write_png
-from .svg import svg_document, write_contour_outputs, write_svg
+from .svg import SVG_IMAGE, svg_document, write_contour_outputs, write_svg
 from .text import write_text
 
 
@@ -65,8 +66,6 @@ def write_layered_outputs(
     never overwrite ``render``'s files. Everything is computed before the first file is
     written; the files are replaced all together or not at all (:func:`output_set`).
     """
-    from ..errors import ParameterError
-    from .svg import SVG_IMAGE
 
     if svg_image not in SVG_IMAGE:
         raise ParameterError(f"svg_image = {svg_image!r}: must be one of {', '.join(SVG_IMAGE)}")

@@ -43,6 +43,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import drjit as dr
 import numpy as np
 import OpenEXR
 
@@ -106,7 +107,6 @@ def _threads() -> None:
     """OpenEXR (de)compresses scanline blocks on a thread pool of its own, off (0 threads)
     unless someone sets it: it gets as many threads as Dr.Jit has (a batch worker's
     ``--threads``). A count somebody else has set is left alone."""
-    import drjit as dr
 
     now = OpenEXR.global_thread_count()
     if now == 0 or (_threads_set and now == _threads_set[-1]):

@@ -12,10 +12,13 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
+from ..coherence import figure
 from ..errors import OutputError, ParameterError
 from ._atomic import atomic_output
 from .png import to_rgb8
+from .text import write_text
 
 #: The video formats ``mi-npr path --video`` writes.
 FORMATS = ("mp4", "gif")
@@ -51,8 +54,6 @@ def write_video(path: str | os.PathLike[str], frames: Sequence[np.ndarray], fps:
     images = [np.ascontiguousarray(f, np.uint8) for f in frames]
     with atomic_output(target) as tmp:
         if fmt == "gif":
-            from PIL import Image
-
             pics = [Image.fromarray(a) for a in images]
             pics[0].save(
                 tmp,
@@ -68,7 +69,7 @@ def write_video(path: str | os.PathLike[str], frames: Sequence[np.ndarray], fps:
 
 
 def _write_mp4(tmp: str, images: list[np.ndarray], fps: int, target: Path) -> None:
-    try:
+    try:  # imported here: only an mp4 needs it, and its import looks for an ffmpeg binary
         import imageio_ffmpeg
     except ImportError:
         raise OutputError(f"{target}: mp4 needs the imageio-ffmpeg package") from None
@@ -90,8 +91,6 @@ def write_coherence(
     """``coherence.json`` (``coherence``, plus any other ``curves``: name -> a
     :func:`mi_npr.coherence.popping` result) and, with matplotlib (the ``plots`` extra), its
     plot ``coherence.png``; without matplotlib the plot is skipped. Returns the paths."""
-    from ..coherence import figure
-    from .text import write_text
 
     out = Path(outdir)
     data = dict(coherence)
@@ -103,7 +102,7 @@ def write_coherence(
         target = out / "coherence.png"
         with atomic_output(target) as tmp:
             fig.savefig(tmp, format="png", dpi=100)
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # imported here: optional (the plots extra)
 
         plt.close(fig)
         files.append(target)

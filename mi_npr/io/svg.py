@@ -45,11 +45,13 @@ from typing import Any
 
 import numpy as np
 
+from ..compose import raw_beauty
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
 from ..params import MAX_RES, Param, check_arg, integer_range, real_range, rgb_color
 from ._atomic import atomic_output, check_writable_dir, output_set
-from .png import linear_to_srgb, save_png, to_rgb8
+from .exr import write_exr
+from .png import linear_to_srgb, save_png, to_rgb8, write_png
 from .text import quoteattr
 
 _RESERVED = {"beauty", "beauty-layer", "contours"}
@@ -262,9 +264,6 @@ def write_contour_outputs(
     ``svg_image``: ``embed`` the raw beauty in the SVG, ``link`` it (written as
     ``<stem>_beauty.png`` beside it) or ``none`` (also ``beauty_in_svg=False``). The SVG's colour
     is the GBuffer's ``mi_npr/contour_color`` (red if absent)."""
-    from ..compose import raw_beauty
-    from .exr import write_exr
-    from .png import write_png
 
     if svg_image not in SVG_IMAGE:
         raise ParameterError(f"svg_image = {svg_image!r}: must be one of {', '.join(SVG_IMAGE)}")

@@ -18,6 +18,7 @@ import numpy as np
 from .. import layers as L
 from ..compose import with_overlays
 from ..gbuffer import GBuffer
+from ..kernels import widen_lines
 from ..raycast import film_grid, film_size, pixel_rays, require_jit
 from ..scene import object_table, sensor_of
 from ..session import SceneSession
@@ -120,7 +121,6 @@ def overlay(gb: GBuffer, line_width: float = 1.0) -> GBuffer:
     ``line_width`` pixels wide; the untouched beauty stays in ``beauty.R/G/B``."""
     if line_width == 1.0:
         return with_overlays(gb, [(gb[name], color) for name, color in COLORS.items()])
-    from ..kernels import widen_lines
 
     wide = [(np.asarray(widen_lines(gb[n], float(line_width))), c) for n, c in COLORS.items()]
     return with_overlays(gb, wide)

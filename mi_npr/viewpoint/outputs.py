@@ -34,6 +34,7 @@ from ..errors import SceneError
 from ..params import check_arg, entry
 from ..render import render
 from ..scene import camera_of, load_scene, merge_defines, sensor_of
+from ..session import resize_sensor
 from . import idbuffer
 from .camera import plots_missing, sensor_xml, sphere_image
 from .measures import check_measure
@@ -102,8 +103,7 @@ def write_best_view(
     res = check_arg("write_best_view", entry(SEARCH_PARAMS, "res"), res)
     scene = load_scene(scene_path, merge_defines(defines, more))
     if scene.sensors() and (resolution is not None or spp is not None):
-        from ..session import resize_sensor  # --width/--height/--spp: the written film
-
+        # --width/--height/--spp: the written film
         resize_sensor(scene.sensors()[0], resolution, spp)
     try:
         check_shapes(scene)
