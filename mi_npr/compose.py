@@ -84,6 +84,13 @@ def with_overlay(gb: GBuffer, alpha: Any, color: Sequence[float]) -> GBuffer:
     return with_overlays(gb, [(alpha, color)])
 
 
+def raw_beauty_layers(gb: GBuffer) -> dict[str, Any]:
+    """The beauty before any overlay as ``R G B`` layers, Dr.Jit tensors with their AD graph:
+    ``beauty.R/G/B`` if present, else ``R G B``."""
+    src = L.RAW_RGB if L.RAW_RGB[0] in gb else L.RGB
+    return {c: gb[s] for c, s in zip(L.RGB, src, strict=True)}
+
+
 def raw_beauty(gb: GBuffer) -> np.ndarray:
     """The beauty before any overlay: ``beauty.R/G/B`` if present, else ``R G B``."""
     return gb.stack(L.RAW_RGB) if L.RAW_RGB[0] in gb else gb.beauty

@@ -100,6 +100,14 @@ def develop_into_film(film: mi.Film, gb: GBuffer, aovs: Sequence[str]) -> mi.Ten
     return _interleave(planar, len(planes), h, w)  # R G B (A) aovs, like Mitsuba's develop()
 
 
+def _count(v: Any) -> Any:
+    """A seed or sample count as a Python int: ``mi.render(scene, params=...)`` passes them as
+    one-element Dr.Jit arrays (its differentiable render operation)."""
+    if dr.is_array_v(v) and dr.width(v) == 1:
+        return int(v[0])
+    return v
+
+
 def _refuse_other_objects(plugin: str, props: mi.Properties) -> None:
     """A nested object that is not an integrator (a ``<bsdf>`` put inside the integrator by
     mistake) is an error naming it, not silently ignored."""
@@ -190,7 +198,7 @@ class NprIntegrator(mi.SamplingIntegrator):
         if not develop:
             raise ParameterError(f"{self.PLUGIN}: develop=False is not supported")
         sensor = sensor_of(scene, sensor)
-        gb = self.npr_gbuffer(scene, sensor, spp or None, seed)
+        gb = self.npr_gbuffer(scene, sensor, _count(spp) or None, _count(seed))
         return develop_into_film(sensor.film(), gb, self.aov_names())
 
     def sample(

@@ -15,7 +15,7 @@ import mitsuba as mi
 import numpy as np
 
 from .. import layers as L
-from ..compose import raw_beauty, with_overlay
+from ..compose import raw_beauty_layers, with_overlay
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
 from ..kernels import id_edges, widen_lines
@@ -117,8 +117,7 @@ def overlay(
     depth = gb.get(L.Z)  # without depth, the larger id owns every edge
     contours = one_sided(contours, owned(mapped, np.zeros(gb.shape) if depth is None else depth))
     layer = contour_layer(contours, gb.shape)
-    raw = raw_beauty(gb)
-    base = gb.with_layers({c: raw[..., i] for i, c in enumerate(L.RGB)})
+    base = gb.with_layers(raw_beauty_layers(gb))
     ink = (layer != 0).astype(np.float32)
     if line_width != 1.0:
         ink = np.asarray(widen_lines(ink, float(line_width)))
