@@ -86,7 +86,7 @@ def test03_svg_parses_and_groups_per_object():
     nums = [float(v) for v in d.replace("M", "").replace("L", "").replace("Z", "").split()]
     np.testing.assert_array_equal(np.reshape(nums, (-1, 2)) - 0.5, contours[0].points)
     image = root.find(f".//{SVG}image")
-    href = image.get("href")
+    href = image.get("{http://www.w3.org/1999/xlink}href")
     png = Image.open(io.BytesIO(base64.b64decode(href.split(",", 1)[1])))
     assert png.size == (12, 10) and png.mode == "RGB"
     assert root.find(f"{SVG}g[@id='contours']").get("stroke") == "#ff0000"

@@ -29,8 +29,9 @@ with at most 2 decimals (0.005 px). Group ids are the object names made into val
 prefix, a clash gets ``-<object id>``); ``data-name`` and ``inkscape:label`` keep the exact name.
 Holes carry ``fill-rule="evenodd"`` (inherited from their group too), so giving a group a fill
 (or combining its paths into one) leaves the holes empty. The beauty is either embedded once
-(SVG 2 ``href``, which browsers and Inkscape >= 1.0 read), linked (``beauty_href``, a file
-beside the SVG) or left out. Writes are atomic.
+as ``xlink:href``, which Inkscape 1.2 reads where it ignores SVG 2's ``href`` (browsers read
+both; the data is not written twice), linked (``beauty_href``, a file
+beside the SVG, named by ``xlink:href`` and ``href`` both) or left out. Writes are atomic.
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ from .text import quoteattr
 
 _RESERVED = {"beauty", "beauty-layer", "contours"}
 _INKSCAPE = "http://www.inkscape.org/namespaces/inkscape"
+_XLINK = "http://www.w3.org/1999/xlink"
 
 
 _WIDTH = Param("width", int, 1, "image width in pixels", integer_range(1, MAX_RES))
@@ -156,8 +158,9 @@ def svg_document(
         groups.setdefault(c.object_id, (c.name, []))[1].append(f'    <path{kind} d="{d}"/>')
     out = [
         '<?xml version="1.0" encoding="UTF-8"?>',
-        f'<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="{_INKSCAPE}" '
-        f'version="1.1" width="{w}" height="{h}" viewBox="0 0 {w} {h}">',
+        f'<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="{_XLINK}" '
+        f'xmlns:inkscape="{_INKSCAPE}" version="1.1" width="{w}" height="{h}" '
+        f'viewBox="0 0 {w} {h}">',
     ]
     if title:
         out.append(f"<title>{_text(title)}</title>")
@@ -171,9 +174,12 @@ def svg_document(
         href = _xml_safe(beauty_href)
     if href is not None:
         out.append(_layer("beauty-layer", "beauty"))
+        # A data URI once, as xlink:href (what Inkscape 1.2 reads, and browsers too); a link as
+        # both attributes.
+        both = "" if href.startswith("data:") else f"href={quoteattr(href)} "
         out.append(
             f'  <image id="beauty" x="0" y="0" width="{w}" height="{h}" '
-            f'style="image-rendering:pixelated" href={quoteattr(href)}/>'
+            f'style="image-rendering:pixelated" {both}xlink:href={quoteattr(href)}/>'
         )
         out.append("</g>")
     taken: set[str] = set(strokes or ())
