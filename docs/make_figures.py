@@ -1,4 +1,4 @@
-"""Regenerate the pictures of the README: python docs/make_figures.py (needs the test extra)."""
+"""Regenerate the pictures of the README and the docs: python docs/make_figures.py (test extra)."""
 
 from __future__ import annotations
 
