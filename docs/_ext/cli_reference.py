@@ -35,20 +35,15 @@ def usage(parser: argparse.ArgumentParser) -> str:
 
 
 def _type_name(action: argparse.Action, command: str | None) -> str:
-    """The Python type of a flag's value: a builtin ``type=``, else the CLI parameter table's
-    (:data:`mi_npr.params.CLI_PARAMS`, where bounded numeric flags are declared)."""
+    """The Python type of a flag's value: a builtin ``type=``, else the type of the library
+    parameter the flag was built from (``mi_npr.cli`` keeps the table entry on its parser as
+    ``type.param``); an RGB colour is ``rgb``."""
     if action.type in (int, float, str):
         return action.type.__name__
-    if command is None or not action.option_strings:
+    p = getattr(action.type, "param", None)
+    if p is None or not isinstance(p.type, type):
         return ""
-    try:
-        from mi_npr.params import CLI_PARAMS
-    except ImportError:  # the table moved: the metavar alone still says what to give
-        return ""
-    for p in CLI_PARAMS.get(command, ()):
-        if p.name in action.option_strings and isinstance(p.type, type):
-            return p.type.__name__
-    return ""
+    return "rgb" if p.type is tuple else p.type.__name__
 
 
 def value_text(

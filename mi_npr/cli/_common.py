@@ -103,6 +103,7 @@ def param_type(p: Param, who: str, plain: bool = True) -> Callable[[str], Any]:
         except ParameterError as e:
             raise argparse.ArgumentTypeError(str(e)) from None
 
+    parse.param = p  # type: ignore[attr-defined]  # the table entry, for the CLI reference
     return parse
 
 
