@@ -15,7 +15,7 @@ from .errors import (
     ParameterError,
     SceneError,
 )
-from .gbuffer import Camera, GBuffer
+from .gbuffer import GBuffer, Projection
 
 #: Why the requested variant could not be activated at import (the ``mi-npr`` command only,
 #: which reports it on one line; anywhere else the import raises it).
@@ -35,6 +35,7 @@ else:
 
 from . import (  # noqa: E402
     batch,
+    camera,
     coherence,
     contours,
     cryptomatte,
@@ -47,8 +48,9 @@ from . import (  # noqa: E402
     raytree,
     viewpoint,
 )
+from .camera import Camera, camera_of, projection_of  # noqa: E402
 from .render import render, render_gbuffer  # noqa: E402
-from .scene import camera_of, load_scene, object_table  # noqa: E402
+from .scene import load_scene, object_table  # noqa: E402
 
 __all__ = [
     "DEFAULT_VARIANT",
@@ -59,8 +61,10 @@ __all__ = [
     "NprError",
     "OutputError",
     "ParameterError",
+    "Projection",
     "SceneError",
     "batch",
+    "camera",
     "camera_of",
     "coherence",
     "contours",
@@ -76,6 +80,7 @@ __all__ = [
     "object_table",
     "paths",
     "pipeline",
+    "projection_of",
     "raytree",
     "render",
     "render_gbuffer",
