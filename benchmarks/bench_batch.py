@@ -4,7 +4,7 @@
 ``lines`` drawing, every job written (EXR, PNG, lines PNG/SVG) and its manifest line appended.
 
 - anchor: a plain loop in this process: each scene loaded once, each view's sensor built
-  (:func:`mi_npr.views.sensor_for`), ``render_layers`` + ``write_layered_outputs``, no Dask;
+  (:func:`mi_npr.camera.sensor_for`), ``render_layers`` + ``write_layered_outputs``, no Dask;
 - ``1 worker``: a LocalCluster (:func:`mi_npr.batch.local_cluster`) of 1 process with 2
   Dr.Jit threads (all the cores);
 - ``2 workers``: a LocalCluster of 2 processes with 1 Dr.Jit thread each.
@@ -40,9 +40,10 @@ KW = {"drawings": ["lines"], "width": W, "height": H, "spp": SPP, "progress": Fa
 def plain_loop(out: Path) -> float:
     """The anchor: the same renders and writes in one process, no Dask, no manifest."""
     import mi_npr
+    from mi_npr.camera import sensor_for
     from mi_npr.pipeline import render_layers
     from mi_npr.session import SceneSession
-    from mi_npr.views import cameras, parse_views, sensor_for
+    from mi_npr.views import cameras, parse_views
 
     spec = parse_views(f"orbit:{VIEWS}")
     t0 = time.perf_counter()

@@ -6,7 +6,7 @@ the popping of the four line variants of the thesis's claim (section 5.1) along 
 Timed (one warm-up frame each, then every frame once; the CPU is shared, so one run):
 
 - anchor: the scene's nested ``path`` integrator (``max_depth`` 8) rendering every camera of
-  the path through :func:`mi_npr.paths.sensor_for` (``integrator.render(scene, sensor)``);
+  the path through :func:`mi_npr.camera.sensor_for` (``integrator.render(scene, sensor)``);
 - ``frames``: :func:`mi_npr.pipeline.render_layers` of every camera with ``lines`` and
   ``contours`` (exact G-buffer, beauty, both drawings, the contours traced as vector paths),
   in memory;
@@ -50,7 +50,7 @@ def main() -> None:
     import drjit as dr
 
     import mi_npr
-    from mi_npr import coherence, paths
+    from mi_npr import camera, coherence, paths
     from mi_npr.gbuffer import to_numpy
     from mi_npr.pipeline import render_layers
     from mi_npr.session import SceneSession
@@ -60,7 +60,7 @@ def main() -> None:
     scene = session.scene
     cams = paths.explore(scene, frames, "entropy", ignore=["floor"])
     beauty = scene.integrator().beauty
-    sensors = [paths.sensor_for(c, session.sensor) for c in cams]
+    sensors = [camera.sensor_for(c, session.sensor) for c in cams]
 
     def anchor(i: int) -> None:
         to_numpy(beauty.render(scene, sensors[i], seed=0, spp=SPP))
@@ -86,7 +86,7 @@ def main() -> None:
     ok = ratios["frames"] <= GOAL
     print(f"lines + contours: {ratios['frames']:.2f} x the path integrator (goal <= {GOAL}): {ok}")
 
-    orbit = paths.render_frames(scene, paths.orbit(scene, frames, 90.0), tmp_orbit(), [], spp=1)
+    orbit = paths.render_frames(scene, camera.orbit(scene, frames, 90.0), tmp_orbit(), [], spp=1)
     table: dict[str, dict[str, float]] = {}
     for label, fr in (("explore", result.gbuffers), ("orbit_90", orbit.gbuffers)):
         for radius in (1, 0):

@@ -15,7 +15,7 @@ from .errors import (
     ParameterError,
     SceneError,
 )
-from .gbuffer import Camera, GBuffer
+from .gbuffer import GBuffer, Projection
 
 #: Why the requested variant could not be activated at import (the ``mi-npr`` command only,
 #: which reports it on one line; anywhere else the import raises it).
@@ -35,6 +35,7 @@ else:
 
 from . import (  # noqa: E402
     batch,
+    camera,
     coherence,
     contours,
     cryptomatte,
@@ -48,6 +49,7 @@ from . import (  # noqa: E402
     raytree,
     viewpoint,
 )
+from .camera import Camera, camera_of, projection_of  # noqa: E402
 from .pipeline import (  # noqa: E402
     render_contours,
     render_layers,
@@ -55,7 +57,7 @@ from .pipeline import (  # noqa: E402
     render_vector_contours,
 )
 from .render import render, render_gbuffer  # noqa: E402
-from .scene import camera_of, load_scene, object_table  # noqa: E402
+from .scene import load_scene, object_table  # noqa: E402
 
 __all__ = [
     "DEFAULT_VARIANT",
@@ -66,8 +68,10 @@ __all__ = [
     "NprError",
     "OutputError",
     "ParameterError",
+    "Projection",
     "SceneError",
     "batch",
+    "camera",
     "camera_of",
     "coherence",
     "contours",
@@ -84,6 +88,7 @@ __all__ = [
     "object_table",
     "paths",
     "pipeline",
+    "projection_of",
     "raytree",
     "render",
     "render_contours",

@@ -37,6 +37,7 @@ import mitsuba as mi
 import numpy as np
 
 from . import layers as L
+from .camera import projection_of
 from .errors import ParameterError
 from .foliage.leaves import leaf_id_layer
 from .gbuffer import GBuffer
@@ -47,7 +48,7 @@ from .kernels.ink import MAX_WIDTH
 from .params import check_values
 from .raycast import film_grid, film_size, pixel_rays, require_jit
 from .render import channels
-from .scene import camera_of, object_table
+from .scene import object_table
 from .session import RENDER_LOCK
 
 #: Most rays per pixel side: 8 x 8 = 64 rays per pixel.
@@ -88,7 +89,7 @@ def supersampled_gbuffer(scene: mi.Scene, sensor: mi.Sensor, n: int) -> GBuffer:
         k: (TU if isinstance(out[k], mi.UInt32) else TF)(out[k], shape=(H, W))
         for k in L.GBUFFER_AOVS
     }
-    return GBuffer(layers, table.names, camera_of(sensor))
+    return GBuffer(layers, table.names, projection_of(sensor))
 
 
 def box_filter(image: Any, n: int) -> Any:

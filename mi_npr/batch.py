@@ -1,9 +1,10 @@
 """Batches: one job per input with a progress bar, where one failure does not stop the others.
 
 - :func:`run_jobs`: the in-process loop of ``mi-npr render`` (one job per scene).
-- :func:`run`: ``mi-npr batch``, scenes x viewpoints (:mod:`mi_npr.views`) on Dask distributed:
-  a ``LocalCluster`` started here (``workers``; ``workers=0`` renders in this process), a running
-  cluster (``scheduler="tcp://host:port"``) or a ``distributed.Client`` of the caller.
+- :func:`run`: ``mi-npr batch``, scenes x viewpoints (a :mod:`mi_npr.views` spec, or a list of
+  :class:`~mi_npr.camera.Camera` given in memory) on Dask distributed: a ``LocalCluster``
+  started here (``workers``; ``workers=0`` renders in this process), a running cluster
+  (``scheduler="tcp://host:port"``) or a ``distributed.Client`` of the caller.
 
 One job = one scene x one view, written to ``OUT/<scene stem>/<view id>.exr`` (+ the PNG/SVG
 files ``mi-npr render`` writes, :func:`mi_npr.io.write_layered_outputs`) by the worker, all
@@ -289,8 +290,8 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
     """Render and write one job; its manifest row (``status`` ``done`` or ``failed`` with a
     one-line ``error``). Runs on a worker; never raises for a failing job."""
     from . import io
+    from .camera import camera_of, resolve, sensor_for
     from .pipeline import render_layers
-    from .views import sensor_camera, sensor_for
 
     t0 = time.perf_counter()
     row = _row(settings, job, attempt, worker=_worker_name())
@@ -299,8 +300,12 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
             _configure(settings)
             session, cams = _scene(settings, job)
             camera = cams[job.view]
-            sensor = session.sensor if camera is None else sensor_for(camera, session.sensor)
-            row["camera"] = (camera or sensor_camera(session.sensor)).to_dict()
+            if camera is None:
+                sensor = session.sensor
+            else:  # a missing up or fov is the sensor's; errors name the file and camera
+                given = resolve(camera, session.sensor, settings.views.where(job.view))
+                sensor = sensor_for(given, session.sensor)
+            row["camera"] = (camera or camera_of(session.sensor)).to_dict()
             result = render_layers(
                 session.scene,
                 settings.drawings,
@@ -348,12 +353,20 @@ def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
 
 
 def plan(scenes: Sequence[str | os.PathLike[str]], views: Any) -> tuple[list[Job], Any]:
-    """The jobs of ``scenes`` x ``views`` (scene by scene) and the parsed view spec."""
+    """The jobs of ``scenes`` x ``views`` (scene by scene) and the parsed view spec; ``views``
+    is a spec (text or :class:`~mi_npr.views.ViewSpec`) or a list of cameras."""
     from .errors import SceneError, check_input_file
     from .io.manifest import scene_hash
     from .views import ViewSpec, parse_views
 
-    spec = views if isinstance(views, ViewSpec) else parse_views(views)
+    if isinstance(views, ViewSpec):
+        spec = views
+    elif isinstance(views, (str, os.PathLike)):
+        spec = parse_views(os.fspath(views))
+    elif isinstance(views, Sequence):
+        spec = ViewSpec.of_cameras(views, "views")
+    else:
+        raise ParameterError(f"views = {views!r}: expected a spec or a list of cameras")
     if isinstance(scenes, (str, os.PathLike)):
         scenes = [scenes]
     if not scenes:
@@ -390,8 +403,9 @@ def run(
     paper: Sequence[float] | None = None,
     flat: bool = False,
 ) -> list[dict[str, Any]]:
-    """Render every scene of ``scenes`` from every view of ``views`` (module docstring) into
-    ``out``; the manifest rows of all jobs, in job order (a job skipped by ``resume``: its
+    """Render every scene of ``scenes`` from every view of ``views`` (module docstring: a
+    ``--views`` spec, or a list of :class:`~mi_npr.camera.Camera`, each named by its ``id``)
+    into ``out``; the manifest rows of all jobs, in job order (a job skipped by ``resume``: its
     earlier row).
 
     ``flat`` writes one scene's views into ``out`` itself (``out/<view id>.exr``; the camera

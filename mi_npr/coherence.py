@@ -34,7 +34,7 @@ import numpy as np
 
 from . import layers as L
 from .errors import ParameterError
-from .gbuffer import Camera, GBuffer
+from .gbuffer import GBuffer, Projection
 from .kernels import lines
 from .projection import project
 
@@ -47,7 +47,7 @@ def _numpy(frame: Any, name: str) -> np.ndarray:
     return np.asarray(v, np.float64)
 
 
-def _camera(frame: Any) -> Camera:
+def _camera(frame: Any) -> Projection:
     cam = getattr(frame, "camera", None)
     if cam is None or cam.fov is None:
         raise ParameterError("popping: every frame needs a perspective camera")
@@ -56,7 +56,7 @@ def _camera(frame: Any) -> Camera:
 
 def reproject(
     frame: Any,
-    camera: Camera,
+    camera: Projection,
     Z: np.ndarray | None = None,
     *,
     radius: int = 1,

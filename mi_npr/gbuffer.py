@@ -105,13 +105,16 @@ def _as_layer(name: str, value: Any, shape: tuple[int, int] | None) -> np.ndarra
 
 
 @dataclass(frozen=True)
-class Camera:
-    """Where the image was seen from (Mitsuba's convention: camera looks along +z, +y is up).
+class Projection:
+    """How the image was seen: the sensor's whole transform, lens and film, as rendered
+    (Mitsuba's convention: camera looks along +z, +y is up, +x is left).
 
     ``to_world`` maps camera space to world space (4x4, column vectors, like
-    ``sensor.world_transform()``); ``fov`` is the horizontal field of view in degrees
-    (``None`` for orthographic cameras); ``resolution`` is (width, height) of the rendered
-    (crop) window.
+    ``sensor.world_transform()``, kept whole: a mirrored or scaled transform is not a
+    ``lookat``); ``fov`` is the horizontal field of view in degrees (``None`` for orthographic
+    cameras); ``resolution`` is (width, height) of the rendered (crop) window. The pose alone
+    is a :class:`mi_npr.camera.Camera` (:func:`mi_npr.camera.camera_of`); this record is what
+    the reprojections of :mod:`mi_npr.projection` and the EXR's standard attributes need.
     """
 
     to_world: np.ndarray
@@ -155,7 +158,7 @@ class Camera:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> Camera:
+    def from_dict(cls, d: Mapping[str, Any]) -> Projection:
         try:
             return cls(
                 to_world=np.asarray(d["to_world"], dtype=np.float64),
@@ -169,7 +172,7 @@ class Camera:
             raise ParameterError(f"camera description is incomplete or malformed: {e}") from e
 
     def __eq__(self, other: object) -> bool:
-        if not isinstance(other, Camera):
+        if not isinstance(other, Projection):
             return NotImplemented
         return (
             np.array_equal(self.to_world, other.to_world)
@@ -194,14 +197,15 @@ class Camera:
 class GBuffer:
     """Named per-pixel layers of one image, plus the object table and the camera.
 
-    ``objects`` maps object ids (1..N, as in the ``object_id`` layer) to shape names; 0 is the
-    background and is not in the table. ``metadata`` holds free-form strings (scene path, spp,
+    ``camera`` is the :class:`Projection` the layers were rendered through. ``objects`` maps
+    object ids (1..N, as in the ``object_id`` layer) to shape names; 0 is the background and is
+    not in the table. ``metadata`` holds free-form strings (scene path, spp,
     variant, mi-npr version) that writers store as file attributes.
     """
 
     layers: Mapping[str, Any]  # name -> (H, W) Dr.Jit tensor (TensorXf or TensorXu)
     objects: Mapping[int, str] = field(default_factory=dict)
-    camera: Camera | None = None
+    camera: Projection | None = None
     metadata: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:

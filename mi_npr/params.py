@@ -95,37 +95,6 @@ def rgb_color(rgb: tuple[float, ...]) -> str | None:
 
 seed_rule = integer_range(0, SEED_MAX)
 
-Vec3 = tuple[float, float, float]
-
-
-def check_lookat(
-    where: str, origin: Any, target: Any, up: Any, fov: Any
-) -> tuple[Vec3, Vec3, Vec3, float | None]:
-    """A pinhole camera's ``lookat(origin, target, up)`` and horizontal ``fov`` (degrees;
-    ``None`` passes: the sensor's), checked and as floats; errors start with ``where``. The
-    one check of every camera a user writes (camera files of ``--views``, camera paths)."""
-
-    def vec3(name: str, value: Any) -> Vec3:
-        try:  # a string of three digits is not three numbers
-            v = [] if isinstance(value, (str, bytes)) else [float(x) for x in value]
-        except (TypeError, ValueError):
-            v = []
-        if len(v) != 3 or not all(math.isfinite(x) for x in v):
-            raise ParameterError(f"{where}: {name} = {value!r}: expected 3 finite numbers")
-        return (v[0], v[1], v[2])
-
-    o, t, u = vec3("origin", origin), vec3("target", target), vec3("up", up)
-    d = np.subtract(t, o)
-    if np.linalg.norm(d) == 0:
-        raise ParameterError(f"{where}: origin and target are the same point {list(o)}")
-    if np.linalg.norm(np.cross(d, u)) <= 1e-9 * np.linalg.norm(d) * max(np.linalg.norm(u), 1e-30):
-        raise ParameterError(f"{where}: up = {list(u)} lies along the view direction (parallel)")
-    if fov is not None:
-        if isinstance(fov, bool) or not isinstance(fov, (int, float)) or not 0 < fov < 180:
-            raise ParameterError(f"{where}: fov = {fov!r}: must be in (0, 180) degrees")
-        fov = float(fov)
-    return o, t, u, fov
-
 
 @dataclass(frozen=True)
 class Param:

@@ -1,12 +1,12 @@
 """Camera paths as data: orbits, splines through keyframes, and the paper's exploration.
 
-A path is a list of :class:`PathCamera` (``origin``, ``target``, ``up``, ``fov`` in degrees,
-horizontal like Mitsuba's ``x_fov``, and ``time``, the frame's time in [0, 1]). It is written
-and read as JSON (:func:`to_json`, :func:`from_json`): a list of objects with ``origin``,
-``target``, ``up``, ``fov`` (and ``time``), the camera format the batch engine reads.
+A path is a list of :class:`~mi_npr.camera.Camera` (``origin``, ``target``, ``up``, ``fov`` in
+degrees, horizontal like Mitsuba's ``x_fov``, and ``time``, the frame's time in [0, 1]), written
+and read as a camera file (:func:`mi_npr.camera.to_json`, :func:`mi_npr.camera.read_cameras`),
+the format of the batch's ``--views FILE.json``.
 
-- :func:`orbit`: a turn around the scene's up axis through the centre of its bounding sphere,
-  starting from the scene's own camera;
+- :func:`mi_npr.camera.orbit`: a turn around the scene's up axis through the centre of its
+  bounding sphere, starting from the scene's own camera (the batch's ``orbit:N`` too);
 - :func:`through`: a smooth path through keyframes. Positions (``origin`` and ``target``) follow
   a centripetal Catmull-Rom spline, which passes through every keyframe and never overshoots
   into cusps or self-intersections, with the frames between two keyframes spread evenly by
@@ -15,32 +15,34 @@ and read as JSON (:func:`to_json`, :func:`from_json`): a list of objects with ``
   keyframes' ``up`` blended linearly and made orthogonal to the view direction; where that
   is degenerate (looking along ``up``), the previous frame's ``up`` is parallel-transported
   (rotated by the smallest rotation taking the previous view direction to the new one), so
-  ``up`` never jumps;
+  ``up`` never jumps. A keyframe without ``up`` or ``fov`` takes the scene sensor's
+  (:func:`mi_npr.camera.resolve`, done by :func:`make_path`);
 - :func:`explore`: the exploration of the paper (section 2.1, last paragraph: "a camera that
   chooses good viewpoints along a path avoiding brusque changes of direction"), see its
   docstring;
 - :func:`render_frames`: every camera rendered with :func:`mi_npr.pipeline.render_layers` (the
-  scene loaded once, one sensor per camera sharing the scene sensor's film, sampler and
-  reconstruction filter), written as ``frame_0000.exr`` ... with the drawings' PNGs,
-  ``path.json``, ``coherence.json`` (:mod:`mi_npr.coherence`) and the videos.
+  scene loaded once, one sensor per camera from :func:`mi_npr.camera.sensor_for`), written as
+  ``frame_0000.exr`` ... with the drawings' PNGs, ``path.json``, ``coherence.json``
+  (:mod:`mi_npr.coherence`) and the videos; or every frame a batch job, the cameras handed to
+  :func:`mi_npr.batch.run` in memory.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import mitsuba as mi
 import numpy as np
 
-from .errors import InputError, ParameterError
-from .params import MAX_FRAMES, Param, check_lookat, integer_range, real_range
-from .scene import camera_of, load_scene, sensor_of
+from .camera import Camera, orbit, read_cameras, resolve, rotate, to_json
+from .errors import ParameterError
+from .params import MAX_FRAMES, Param, integer_range, real_range
+from .scene import load_scene, sensor_of
 
 SceneLike = str | os.PathLike[str] | mi.Scene
 
@@ -66,45 +68,6 @@ PATH_PARAMS: tuple[Param, ...] = (
 )
 
 
-@dataclass(frozen=True)
-class PathCamera:
-    """One camera of a path: a ``lookat`` (``origin``, ``target``, ``up``), the horizontal field
-    of view ``fov`` in degrees and the frame's ``time`` in [0, 1]."""
-
-    origin: tuple[float, float, float]
-    target: tuple[float, float, float]
-    up: tuple[float, float, float]
-    fov: float
-    time: float = 0.0
-
-    def __post_init__(self) -> None:
-        o, t, u, fov = check_lookat("camera", self.origin, self.target, self.up, self.fov)
-        if fov is None:
-            raise ParameterError("camera: fov = None: must be in (0, 180) degrees")
-        for name, value in (("origin", o), ("target", t), ("up", u), ("fov", fov)):
-            object.__setattr__(self, name, value)
-        object.__setattr__(self, "time", float(self.time))
-
-    @property
-    def direction(self) -> np.ndarray:
-        """The unit view direction."""
-        d = np.subtract(self.target, self.origin)
-        return d / np.linalg.norm(d)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "origin": list(self.origin),
-            "target": list(self.target),
-            "up": list(self.up),
-            "fov": self.fov,
-            "time": self.time,
-        }
-
-    def transform(self) -> mi.ScalarTransform4f:
-        """The sensor's ``to_world`` (Mitsuba's ``look_at``)."""
-        return mi.ScalarTransform4f().look_at(origin=self.origin, target=self.target, up=self.up)
-
-
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
@@ -120,103 +83,6 @@ def check_frames(frames: Any) -> int:
     if not 1 <= frames <= MAX_FRAMES:
         raise ParameterError(f"frames = {frames}: must be in [1, {MAX_FRAMES}]")
     return int(frames)
-
-
-# --------------------------------------------------------------------------------------- JSON
-
-
-def to_json(cameras: Sequence[PathCamera]) -> str:
-    """The path as JSON: a list of ``{"origin", "target", "up", "fov", "time"}`` objects."""
-    return json.dumps([c.to_dict() for c in cameras], indent=1)
-
-
-def from_json(text: str, source: str = "cameras") -> list[PathCamera]:
-    """A path from :func:`to_json`'s format (``time`` optional: evenly spread when absent;
-    ``fov`` required). Errors name ``source`` and the camera."""
-    try:
-        data = json.loads(text)
-    except ValueError as e:
-        raise InputError(f"{source}: not JSON ({e})") from None
-    if not isinstance(data, list) or not data:
-        raise InputError(f"{source}: expected a non-empty list of cameras")
-    times = _times(len(data))
-    out = []
-    for i, c in enumerate(data):
-        if not isinstance(c, dict):
-            raise InputError(f"{source}: camera {i} is not an object")
-        missing = [k for k in ("origin", "target", "up", "fov") if k not in c]
-        if missing:
-            raise InputError(f"{source}: camera {i} has no {missing[0]!r}")
-        try:
-            out.append(
-                PathCamera(c["origin"], c["target"], c["up"], c["fov"], c.get("time", times[i]))
-            )
-        except (ParameterError, TypeError, ValueError) as e:
-            raise InputError(f"{source}: camera {i}: {e}") from None
-    return out
-
-
-def read_cameras(path: str | os.PathLike[str]) -> list[PathCamera]:
-    """The cameras of a JSON file (:func:`from_json`)."""
-    from .errors import check_input_file
-
-    check_input_file(os.fspath(path), InputError)
-    return from_json(Path(path).read_text(encoding="utf-8"), os.fspath(path))
-
-
-# -------------------------------------------------------------------------------- scene setup
-
-
-def scene_camera(scene: mi.Scene, sensor: int | mi.Sensor = 0) -> PathCamera:
-    """The scene sensor's camera as a :class:`PathCamera` (target one unit ahead)."""
-    cam = camera_of(sensor_of(scene, sensor))
-    if cam.fov is None:
-        raise ParameterError(f"sensor {sensor!r}: camera paths need a perspective sensor")
-    o = cam.origin
-    return PathCamera(o, o + cam.forward, cam.up, cam.fov)
-
-
-def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rodrigues' rotation of ``v`` about the unit ``axis`` by ``angle`` radians."""
-    c, s = math.cos(angle), math.sin(angle)
-    return v * c + np.cross(axis, v) * s + axis * np.dot(axis, v) * (1 - c)
-
-
-def orbit(
-    scene: SceneLike,
-    frames: int,
-    degrees: float = 360.0,
-    *,
-    target: Sequence[float] | None = None,
-    sensor: int = 0,
-) -> list[PathCamera]:
-    """``frames`` cameras turning ``degrees`` about the scene's up axis (the world axis nearest
-    its camera's ``up``) through ``target`` (default: the centre of the scene's bounding
-    sphere), starting at the scene's camera and keeping its distance, height and ``fov``. A
-    full turn (360) does not repeat its first view: frame ``i`` is at ``i * degrees / frames``.
-    """
-    from .viewpoint.search import nearest_axis
-
-    frames = check_frames(frames)
-    if not math.isfinite(degrees):
-        raise ParameterError(f"degrees = {degrees!r}: must be finite")
-    s = load_scene(scene)
-    start = scene_camera(s, sensor)
-    up = nearest_axis(np.asarray(start.up))
-    if target is None:
-        bs = s.bbox().bounding_sphere()
-        tgt = np.asarray(bs.center, np.float64).ravel()[:3]
-    else:
-        tgt = np.asarray(target, np.float64).reshape(3)
-    arm = np.asarray(start.origin) - tgt
-    if np.linalg.norm(np.cross(arm, up)) < 1e-9 * max(np.linalg.norm(arm), 1e-30):
-        raise ParameterError("orbit: the scene's camera is on the up axis through the target")
-    step = math.radians(degrees) / (frames if abs(degrees) >= 360 else max(frames - 1, 1))
-    times = _times(frames)
-    return [
-        PathCamera(tgt + _rotate(arm, up, i * step), tgt, up, start.fov, times[i])
-        for i in range(frames)
-    ]
 
 
 # ------------------------------------------------------------------------------ interpolation
@@ -265,7 +131,7 @@ def _transport(up: np.ndarray, d0: np.ndarray, d1: np.ndarray) -> np.ndarray:
     s = np.linalg.norm(axis)
     if s < 1e-12:
         return up
-    return _rotate(up, axis / s, math.atan2(s, float(np.dot(d0, d1))))
+    return rotate(up, axis / s, math.atan2(s, float(np.dot(d0, d1))))
 
 
 def key_frames(keys: int, frames: int) -> list[int]:
@@ -275,15 +141,22 @@ def key_frames(keys: int, frames: int) -> list[int]:
     return [round(k * (frames - 1) / (keys - 1)) for k in range(keys)]
 
 
-def through(cameras: Sequence[PathCamera], frames: int) -> list[PathCamera]:
+def through(cameras: Sequence[Camera], frames: int) -> list[Camera]:
     """``frames`` cameras through the keyframes ``cameras`` (module docstring): keyframe ``k``
-    is frame ``round(k (frames - 1) / (K - 1))``, ``fov`` and ``time`` are blended linearly."""
+    is frame ``round(k (frames - 1) / (K - 1))``, ``fov`` and ``time`` are blended linearly.
+    Every keyframe needs its ``up`` and ``fov`` (:func:`mi_npr.camera.resolve`)."""
     frames = check_frames(frames)
     keys = list(cameras)
     if not keys:
         raise ParameterError("through: no keyframes")
-    if not all(isinstance(c, PathCamera) for c in keys):
-        raise ParameterError("through: keyframes must be PathCamera objects")
+    if not all(isinstance(c, Camera) for c in keys):
+        raise ParameterError("through: keyframes must be mi_npr.camera.Camera objects")
+    for k, c in enumerate(keys):
+        if not c.resolved:
+            raise ParameterError(
+                f"through: keyframe {k} has no {'up' if c.up is None else 'fov'} "
+                "(mi_npr.camera.resolve gives it the scene sensor's)"
+            )
     if len(keys) == 1:
         return [keys[0]] * frames
     if frames < len(keys):
@@ -292,7 +165,7 @@ def through(cameras: Sequence[PathCamera], frames: int) -> list[PathCamera]:
     T = np.array([c.target for c in keys])
     U = np.array([c.up for c in keys])
     at = key_frames(len(keys), frames)
-    out: list[PathCamera] = []
+    out: list[Camera] = []
     prev_up = prev_d = None
     for seg in range(len(keys) - 1):
         a, b = keys[seg], keys[seg + 1]
@@ -312,19 +185,19 @@ def through(cameras: Sequence[PathCamera], frames: int) -> list[PathCamera]:
             up = _unit(up)
             if prev_up is not None and np.dot(up, prev_up) < 0:  # never a flip
                 up = _unit(_transport(prev_up, prev_d, d))
-            fov = (1 - s) * a.fov + s * b.fov
-            time = (1 - s) * a.time + s * b.time
-            out.append(PathCamera(o, t, up, fov, time))
+            fov = (1 - s) * a.fov + s * b.fov  # type: ignore[operator]
+            time = min(max((1 - s) * a.time + s * b.time, 0.0), 1.0)  # no rounding past 1
+            out.append(Camera(o, t, up, fov, time))
             prev_up, prev_d = up, d
     return out
 
 
-def angular_steps(cameras: Sequence[PathCamera], centre: Sequence[float] | None = None) -> dict:
+def angular_steps(cameras: Sequence[Camera], centre: Sequence[float] | None = None) -> dict:
     """Per-frame changes of a path, in degrees: ``view`` (angle between consecutive view
     directions), ``speed`` (angle the camera moves by as seen from ``centre``, default each
     frame's target) and ``turn`` (change of the direction of motion on the sphere about
     ``centre``)."""
-    D = np.array([c.direction for c in cameras])
+    D = np.array([c.forward for c in cameras])
     view = np.degrees(np.arccos(np.clip(np.sum(D[1:] * D[:-1], axis=1), -1, 1)))
     C = (
         np.array([c.target for c in cameras])
@@ -360,7 +233,7 @@ class Exploration:
     """What :func:`explore` found: the path, the quality of every frame's view (the measure of
     ``measure`` at the viewing sphere's ID-buffer resolution) and the candidate views."""
 
-    cameras: list[PathCamera]
+    cameras: list[Camera]
     qualities: np.ndarray
     candidates: np.ndarray
     candidate_qualities: np.ndarray
@@ -382,7 +255,7 @@ def explore(
     sensor: int = 0,
     ignore: Sequence[str] = (),
     result: bool = False,
-) -> list[PathCamera] | Exploration:
+) -> list[Camera] | Exploration:
     """The paper's automatic exploration (section 2.1, last paragraph): a camera path on the
     viewing sphere through good viewpoints, without brusque changes.
 
@@ -475,7 +348,7 @@ def explore(
             if ang > turn:
                 axis = pos  # rotate the heading about the position (the sphere's normal)
                 side = 1.0 if np.dot(np.cross(heading, want), axis) >= 0 else -1.0
-                heading = _unit(_rotate(heading, axis, side * turn))
+                heading = _unit(rotate(heading, axis, side * turn))
             else:
                 heading = want
         step = min(speed, float(arc(pos, dirs[goal][None])[0]))
@@ -489,7 +362,7 @@ def explore(
     P = np.array(path)
     origins = view.origins(P)
     times = _times(frames)
-    cams = [PathCamera(o, view.target, up, view.fov, times[i]) for i, o in enumerate(origins)]
+    cams = [Camera(o, view.target, up, view.fov, times[i]) for i, o in enumerate(origins)]
     if not result:
         return cams
     qual = view.qualities(s, origins, measure)
@@ -501,15 +374,16 @@ def make_path(
     frames: int,
     *,
     explore_measure: str | None = None,
-    keys: str | os.PathLike[str] | Sequence[PathCamera] | None = None,
+    keys: str | os.PathLike[str] | Sequence[Camera] | None = None,
     degrees: float = 360.0,
     max_speed: float = 4.0,
     max_turn: float = 12.0,
     explore_ignore: Sequence[str] = (),
-) -> list[PathCamera]:
+) -> list[Camera]:
     """The path of ``mi-npr path``: :func:`explore` with ``explore_measure`` (objects named in
     ``explore_ignore`` count as background), :func:`through` the keyframes ``keys`` (cameras or
-    a JSON file of them), else an :func:`orbit`."""
+    a camera file; a missing ``up`` or ``fov`` is the scene sensor's), else an
+    :func:`~mi_npr.camera.orbit` of ``degrees``."""
     if explore_measure is not None and keys is not None:
         raise ParameterError("explore and keys: give one of them")
     if explore_measure is not None:
@@ -521,14 +395,21 @@ def make_path(
             max_turn=max_turn,
             ignore=explore_ignore,
         )
+    frames = check_frames(frames)
     if keys is not None:
-        cams = keys if isinstance(keys, Sequence) and not isinstance(keys, str) else None
-        return through(cams if cams is not None else read_cameras(keys), frames)
+        if isinstance(keys, (str, os.PathLike)):
+            source, cams = os.fspath(keys), read_cameras(keys)
+        else:
+            source, cams = "keys", list(keys)
+        s = load_scene(scene)
+        like = sensor_of(s) if s.sensors() else None
+        cams = [resolve(c, like, f"{source}: camera {k}") for k, c in enumerate(cams)]
+        return through(cams, frames)
     return orbit(scene, frames, degrees)
 
 
 def path_qualities(
-    scene: SceneLike, cameras: Sequence[PathCamera], measure: str = "entropy", res: int = 48
+    scene: SceneLike, cameras: Sequence[Camera], measure: str = "entropy", res: int = 48
 ) -> np.ndarray:
     """The quality (eq. 1, 2 or 3) of every camera's view at the viewing sphere's distance
     (:func:`mi_npr.viewpoint.viewing`): for comparing paths of different radii."""
@@ -541,15 +422,6 @@ def path_qualities(
 
 
 # ---------------------------------------------------------------------------------- rendering
-
-
-def sensor_for(camera: PathCamera, like: mi.Sensor) -> mi.Sensor:
-    """A perspective sensor at ``camera`` with the film, sampler (and so the reconstruction
-    filter and sample count) and clip planes of the sensor ``like``
-    (:func:`mi_npr.scene.sensor_at`, the cameras of batch views too)."""
-    from .scene import sensor_at
-
-    return sensor_at(like, camera.origin, camera.target, camera.up, camera.fov)
 
 
 @dataclass
@@ -572,7 +444,7 @@ def _kept_layers() -> tuple[str, ...]:
 
 def render_frames(
     scene: SceneLike,
-    cameras: Sequence[PathCamera],
+    cameras: Sequence[Camera],
     out: str | os.PathLike[str],
     drawings: Sequence[str] = (),
     params: Mapping[str, Any] | None = None,
@@ -588,15 +460,15 @@ def render_frames(
     on_frame: Callable[[int, Any], None] | None = None,
     cluster: Mapping[str, Any] | None = None,
 ) -> Frames:
-    """Render every camera of a path into ``out`` (the ONE place frames are rendered; the batch
-    engine will take the frames as jobs here).
+    """Render every camera of a path into ``out`` (the one place frames are rendered).
 
     The scene is loaded once (:class:`~mi_npr.session.SceneSession`: ``resolution``, ``spp``,
     ``defines``); frame ``i`` is :func:`mi_npr.pipeline.render_layers` of that scene seen by
-    :func:`sensor_for` of camera ``i``, written by :func:`mi_npr.io.write_layered_outputs` as
-    ``frame_%04d.exr``, ``frame_%04d.png`` and each drawing's PNG/SVG. Then ``path.json`` (the
-    cameras), ``coherence.json`` (:func:`mi_npr.coherence.popping` of the ``lines`` layer, or
-    the ``contour`` layer without lines) and, with ``video`` (``"mp4"`` or ``"gif"``), the
+    :func:`mi_npr.camera.sensor_for` of camera ``i``, written by
+    :func:`mi_npr.io.write_layered_outputs` as ``frame_%04d.exr``, ``frame_%04d.png`` and each
+    drawing's PNG/SVG. Then ``path.json`` (the cameras), ``coherence.json``
+    (:func:`mi_npr.coherence.popping` of the ``lines`` layer, or the ``contour`` layer without
+    lines) and, with ``video`` (``"mp4"`` or ``"gif"``), the
     videos ``beauty.<fmt>`` (the beauty with the lines) and ``contours.<fmt>`` (the contour
     overlay, with ``contours`` on) through :func:`mi_npr.io.frames.write_video`. With
     ``variants``, ``coherence.json`` also holds the popping of the four line variants of the
@@ -604,13 +476,15 @@ def render_frames(
 
     ``cluster`` (``workers``, ``threads_per_worker``, ``scheduler``, ``client``, ``resume``,
     ``retries``: :func:`mi_npr.batch.run`'s) makes every frame a batch job on Dask instead:
-    ``scene`` must then be an XML path; the frames are the same files (plus the batch's
+    ``scene`` must then be an XML path; the cameras go to the batch in memory (camera ``i`` is
+    the view ``frame_%04d``); the frames are the same files (plus the batch's
     ``manifest.jsonl``, so ``resume`` skips finished frames), read back for the coherence
     measure and the videos.
     """
     from PIL import Image
 
     from . import layers as L
+    from .camera import sensor_for
     from .coherence import line_variants, popping
     from .gbuffer import GBuffer
     from .io import read_exr, write_layered_outputs, write_text
@@ -640,7 +514,7 @@ def render_frames(
                 png = outdir / f"frame_{i:04d}_contours.png"
                 if png.is_file():
                     movie["contours"].append(np.asarray(Image.open(png).convert("RGB")))
-        cams_left: list[PathCamera] = []
+        cams_left: list[Camera] = []
     else:
         cams_left = cams
     session = (
@@ -694,7 +568,7 @@ def render_frames(
 
 def _frames_as_jobs(
     scene: SceneLike,
-    cams: Sequence[PathCamera],
+    cams: Sequence[Camera],
     outdir: Path,
     drawings: Sequence[str],
     params: Mapping[str, Any] | None,
@@ -705,19 +579,15 @@ def _frames_as_jobs(
     cluster: Mapping[str, Any],
     progress: bool,
 ) -> list[Path]:
-    """Every frame a job of :func:`mi_npr.batch.run` (``frame_%04d``, written flat into
-    ``outdir``); the files written, or one :class:`~mi_npr.errors.SceneError` line naming the
-    first frame that failed."""
+    """Every frame a job of :func:`mi_npr.batch.run` (the cameras, named ``frame_%04d``, given
+    in memory; written flat into ``outdir``); the files written, or one
+    :class:`~mi_npr.errors.SceneError` line naming the first frame that failed."""
     from .batch import run
     from .errors import SceneError
-    from .io import write_text
 
     if not isinstance(scene, (str, os.PathLike)):
         raise ParameterError("frames as batch jobs: give the scene as an XML path")
-    keys = write_text(
-        outdir / "frames.json",
-        json.dumps([{"id": f"frame_{i:04d}", **c.to_dict()} for i, c in enumerate(cams)]),
-    )
+    views = [replace(c, id=f"frame_{i:04d}") for i, c in enumerate(cams)]
     w, h = resolution if resolution is not None else (None, None)
     allowed = {"workers", "threads_per_worker", "scheduler", "client", "resume", "retries"}
     unknown = sorted(set(cluster) - allowed)
@@ -727,7 +597,7 @@ def _frames_as_jobs(
         )
     rows = run(
         [scene],
-        str(keys),
+        views,
         out=outdir,
         drawings=drawings,
         params=params,
@@ -743,7 +613,7 @@ def _frames_as_jobs(
     failed = [r for r in rows if r.get("status") != "done"]
     if failed:
         raise SceneError(f"{len(failed)} of {len(rows)} frames failed: {failed[0].get('error')}")
-    return [keys, *(outdir / p for r in rows for p in r["outputs"])]
+    return [outdir / p for r in rows for p in r["outputs"]]
 
 
 def render_path(
@@ -754,7 +624,7 @@ def render_path(
     params: Mapping[str, Any] | None = None,
     *,
     explore_measure: str | None = None,
-    keys: str | os.PathLike[str] | Sequence[PathCamera] | None = None,
+    keys: str | os.PathLike[str] | Sequence[Camera] | None = None,
     degrees: float = 360.0,
     max_speed: float = 4.0,
     max_turn: float = 12.0,

@@ -120,7 +120,7 @@ def render_layers(
     the module docstring).
 
     ``sensor``: the scene's sensor index, or a sensor object (a batch's camera,
-    :func:`mi_npr.views.sensor_for`). ``resolution=(W, H)`` and ``spp`` size the film and the
+    :func:`mi_npr.camera.sensor_for`). ``resolution=(W, H)`` and ``spp`` size the film and the
     sampler whatever the XML's ``<default>`` names (:class:`~mi_npr.session.SceneSession`);
     ``defines`` and the other keyword arguments fill the XML's ``<default>``\\ s; ``progress``
     shows a bar on a long beauty.

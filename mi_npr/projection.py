@@ -1,7 +1,7 @@
 """World -> image for a Mitsuba perspective camera, written once.
 
 The EXR writer's standard attributes (``worldToCamera``, ``worldToNDC``) and the reprojection of
-:mod:`mi_npr.coherence` use the same matrices. A :class:`~mi_npr.gbuffer.Camera` holds Mitsuba's
+:mod:`mi_npr.coherence` use the same matrices. A :class:`~mi_npr.gbuffer.Projection` holds Mitsuba's
 ``to_world`` (camera space: +z forward, +y up, +x to the *left*) and its horizontal ``fov``.
 
 - :func:`world_to_camera`: OpenEXR/RenderMan camera space (+x right, +y up, +z forward);
@@ -16,18 +16,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from .gbuffer import Camera
+from .gbuffer import Projection
 
 #: OpenEXR/RenderMan camera space against Mitsuba's: x is mirrored (Mitsuba's +x is left).
 _MIRROR_X = np.diag([-1.0, 1.0, 1.0, 1.0])
 
 
-def world_to_camera(camera: Camera) -> np.ndarray:
+def world_to_camera(camera: Projection) -> np.ndarray:
     """World -> OpenEXR camera space (+x right, +y up, +z forward), 4x4 for column vectors."""
     return _MIRROR_X @ np.linalg.inv(camera.to_world)
 
 
-def world_to_ndc(camera: Camera) -> np.ndarray | None:
+def world_to_ndc(camera: Projection) -> np.ndarray | None:
     """World -> OpenEXR NDC (homogeneous, column vectors; ``None`` unless perspective).
 
     After the divide by w: x = 0 at the image's left edge and 1 at its right, y = 0 at the top
@@ -51,7 +51,7 @@ def world_to_ndc(camera: Camera) -> np.ndarray | None:
     return proj @ world_to_camera(camera)
 
 
-def project(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def project(camera: Projection, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World ``points`` (..., 3) seen by a perspective ``camera``: ``(x, y, depth)`` with
     ``x``, ``y`` continuous pixel coordinates (centre of pixel ``(i, j)`` at
     ``(i + 0.5, j + 0.5)``) and ``depth`` the camera-space distance along the view axis (the

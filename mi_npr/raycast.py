@@ -100,7 +100,7 @@ def pinhole_rays(
     """The pixel-centre rays of ``V`` pinhole cameras in one array of ``V x W x H`` lanes.
 
     ``origin`` (V, 3); ``frame`` = ``(forward, left, up)`` unit vectors (V, 3) each (see
-    :func:`mi_npr.viewpoint.idbuffer.view_frame`); ``fov`` the horizontal field of view in
+    :func:`mi_npr.camera.view_frame`); ``fov`` the horizontal field of view in
     degrees; ``size`` = (width, height). Returns the rays and the view index of every lane.
     Pixel ``(x, y)`` looks along ``f + (1 - 2 (x + 0.5) / W) tan(fov / 2) left +
     (1 - 2 (y + 0.5) / H) tan(fov / 2) H / W up``: Mitsuba's ``perspective`` sensor at that pose.

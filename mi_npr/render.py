@@ -27,10 +27,11 @@ from tqdm import tqdm
 
 from . import layers as L
 from ._version import __version__
+from .camera import projection_of
 from .gbuffer import GBuffer
 from .memory import check_render, render_passes
 from .raycast import Hits, cast, film_grid, film_size, pixel_rays, require_jit
-from .scene import ObjectTable, camera_of, merge_defines, sensor_of
+from .scene import ObjectTable, merge_defines, sensor_of
 from .session import SceneSession, check_spp
 
 __all__ = ["pixel_rays", "render", "render_gbuffer"]
@@ -205,7 +206,7 @@ def render_gbuffer(
     }
     if session.source:
         meta["mi_npr/scene"] = session.source
-    return GBuffer(ordered, table.names, camera_of(sensor), meta)
+    return GBuffer(ordered, table.names, projection_of(sensor), meta)
 
 
 def render(

@@ -1,4 +1,4 @@
-"""Loading scenes, naming their objects stably, and describing their cameras.
+"""Loading scenes and their sensors, and naming their objects stably.
 
 Object ids (the ``object_id`` layer) must not depend on the order Mitsuba keeps its shapes in
 (``scene.shapes()`` changes with the XML's order and with scene optimisation), and Mitsuba's own
@@ -28,7 +28,6 @@ import mitsuba as mi
 import numpy as np
 
 from .errors import ParameterError, SceneError, check_input_file, one_line
-from .gbuffer import Camera
 from .raycast import require_jit
 
 
@@ -128,54 +127,6 @@ def sensor_of(scene: mi.Scene, sensor: int | mi.Sensor = 0) -> mi.Sensor:
     if w < 1 or h < 1:
         raise SceneError(f"film size {w}x{h}: width and height must be at least 1 pixel")
     return sensor
-
-
-def _scalar(x: Any) -> float:
-    return float(np.asarray(x).ravel()[0]) if not isinstance(x, (int, float)) else float(x)
-
-
-def camera_of(sensor: mi.Sensor) -> Camera:
-    """A :class:`~mi_npr.gbuffer.Camera` describing ``sensor`` (pose, fov, crop resolution)."""
-    m = np.asarray(sensor.world_transform().matrix, dtype=np.float64).reshape(4, 4)
-    params = mi.traverse(sensor)
-    fov = _scalar(params["x_fov"]) if "x_fov" in params else None
-    kind = sensor.class_name().replace("Camera", "").lower() or "camera"
-    near = _scalar(params["near_clip"]) if "near_clip" in params else 1e-2
-    far = _scalar(params["far_clip"]) if "far_clip" in params else 1e4
-    w, h = sensor.film().crop_size()
-    return Camera(m, (int(w), int(h)), fov, kind, near, far)
-
-
-def sensor_at(
-    like: mi.Sensor,
-    origin: Any,
-    target: Any,
-    up: Any = (0.0, 1.0, 0.0),
-    fov: float | None = None,
-) -> mi.Sensor:
-    """A ``perspective`` sensor at ``lookat(origin, target, up)`` with the horizontal field of
-    view ``fov`` in degrees (``None``: ``like``'s) and the film size, reconstruction filter,
-    sampler (a clone: same type, sample count and seed) and clip planes of the sensor ``like``:
-    the camera of a batch view or of a camera path, built with ``mi.load_dict``."""
-    cam = camera_of(like)
-    if fov is None:
-        fov = cam.fov if cam.fov is not None else 45.0
-    w, h = (int(v) for v in like.film().size())
-    d: dict[str, Any] = {
-        "type": "perspective",
-        "fov": float(fov),
-        "fov_axis": "x",
-        "to_world": mi.ScalarTransform4f().look_at(
-            origin=[float(v) for v in origin],
-            target=[float(v) for v in target],
-            up=[float(v) for v in up],
-        ),
-        "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": like.film().rfilter()},
-        "sampler": like.sampler().clone(),
-        "near_clip": cam.near_clip,
-        "far_clip": cam.far_clip,
-    }
-    return mi.load_dict(d)
 
 
 def shape_bbox(shape: mi.Shape) -> np.ndarray:

@@ -1,140 +1,107 @@
 """Viewpoints of a batch (``mi-npr batch --views SPEC``): which cameras each scene is seen from.
 
 A view spec names a list of views; each view has an id (the stem of its output files) and, once
-the scene is loaded, a :class:`CameraSpec` (``origin``, ``target``, ``up``, horizontal ``fov``)
-that :func:`sensor_for` turns into a Mitsuba sensor with the film, sampler and reconstruction
-filter of the scene's own sensor.
+the scene is loaded, a :class:`~mi_npr.camera.Camera` that :func:`mi_npr.camera.sensor_for`
+turns into a Mitsuba sensor with the film, sampler and reconstruction filter of the scene's own
+sensor.
 
 ==================  ===========================================================================
 ``scene``           the scene's own sensor (view id ``scene``), rendered as it is
 ``orbit:N``         N views on a circle around the scene's up axis through the centre of its
                     bounding sphere, at the sensor's distance and elevation; view 0 is at the
                     sensor's azimuth (``orbit_000`` ... ``orbit_N-1``, counter-clockwise seen
-                    from above)
+                    from above): :func:`mi_npr.camera.orbit`, the camera paths' orbit
 ``sphere:N``        N Fibonacci-lattice directions on the upper half of the viewing sphere
                     (best view's sphere: its up axis, centre and radius); ``sphere:N:all`` the
                     whole sphere (``sphere_000`` ...)
 ``best:K``          the K best-rated viewpoints of best view's search (``best:K:MEASURE`` with
                     MEASURE ``entropy``, the default, ``pb`` or ``curvature``), best first
                     (``best_0`` ...)
-``FILE.json``       a list of cameras ``{"origin": [x, y, z], "target": [...], "up": [...],
-                    "fov": degrees}`` (``up`` defaults to +y, ``fov`` to the sensor's; an
-                    ``"id"`` names the view, else ``cam_000`` ...)
+``FILE.json``       a camera file (:mod:`mi_npr.camera.files`: a missing ``up`` is the scene's
+                    up axis, a missing ``fov`` the sensor's); a camera's ``id`` names its view,
+                    else ``cam_000`` ...
 ==================  ===========================================================================
 
-Ambiguities resolved: the orbit's centre is the bounding sphere's centre (a sensor's ``lookat``
-target is not kept by Mitsuba), its up axis the world axis nearest the sensor's up (as best view
-does, :func:`mi_npr.viewpoint.search.viewing`); a view's up is the one best view gives its
-cameras (:func:`mi_npr.viewpoint.view_frame`).
+:meth:`ViewSpec.of_cameras` makes a spec of cameras given in memory (a camera path's frames).
+Ambiguities resolved: the sphere's views have the up of best view's cameras
+(:func:`mi_npr.camera.view_frame`); a file's camera keeps its missing ``up``/``fov`` as ``None``
+(the manifest records the camera as given) until it meets the scene's sensor.
 """
 
 from __future__ import annotations
 
-import json
-import math
+import hashlib
 import os
-import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
+from .camera import Camera, on_sphere, orbit, read_cameras, sphere_directions, to_json
 from .errors import ParameterError
-from .params import VIEW_PARAMS, check_arg, check_lookat
+from .params import VIEW_PARAMS, check_arg
 
-#: A view id is a file stem: letters, digits, ``_``, ``-`` and ``.`` (not first).
-_VIEW_ID = re.compile(r"^[A-Za-z0-9_-][A-Za-z0-9_.-]{0,99}$")
 _MEASURES = ("entropy", "pb", "curvature")
-
-
-@dataclass(frozen=True)
-class CameraSpec:
-    """A pinhole camera: ``lookat(origin, target, up)`` and a horizontal ``fov`` (degrees,
-    ``None``: the scene sensor's)."""
-
-    origin: tuple[float, float, float]
-    target: tuple[float, float, float]
-    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
-    fov: float | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "origin": list(self.origin),
-            "target": list(self.target),
-            "up": list(self.up),
-            "fov": self.fov,
-        }
 
 
 @dataclass(frozen=True)
 class ViewSpec:
     """A parsed ``--views`` value: ``kind`` (``scene``, ``orbit``, ``sphere``, ``best``,
-    ``file``), a count ``n``, an option (``all`` for ``sphere``, the measure for ``best``) and,
-    for a file, its cameras by view id."""
+    ``file``, ``cameras``), a count ``n``, an option (``all`` for ``sphere``, the measure for
+    ``best``) and, for a file or cameras given in memory, the cameras (their ids set)."""
 
     text: str
     kind: str
     n: int = 1
     option: str = ""
-    cameras: tuple[tuple[str, CameraSpec], ...] = ()
+    cameras: tuple[Camera, ...] = ()
 
     def ids(self) -> list[str]:
         """The view ids, known without loading the scene (the batch's job list)."""
         if self.kind == "scene":
             return ["scene"]
-        if self.kind == "file":
-            return [i for i, _ in self.cameras]
+        if self.kind in ("file", "cameras"):
+            return [str(c.id) for c in self.cameras]
         if self.kind == "best":
             return [f"best_{k}" for k in range(self.n)]
         width = max(3, len(str(self.n - 1)))
         return [f"{self.kind}_{k:0{width}d}" for k in range(self.n)]
 
+    @cached_property
+    def _index(self) -> dict[str, int]:
+        return {str(c.id): k for k, c in enumerate(self.cameras)}
 
-def _camera(where: str, item: Any) -> CameraSpec:
-    if not isinstance(item, dict):
-        raise ParameterError(f"{where}: expected an object with origin, target, up, fov")
-    # "time": a camera path's (mi-npr path writes path.json in this format), not used here
-    unknown = sorted(set(item) - {"id", "origin", "target", "up", "fov", "time"})
-    if unknown:
-        raise ParameterError(
-            f"{where}: unknown key {unknown[0]!r} (keys: id, origin, target, up, fov, time)"
-        )
-    for key in ("origin", "target"):
-        if key not in item:
-            raise ParameterError(f"{where}: missing {key!r}")
-    origin, target, up, fov = check_lookat(
-        where, item["origin"], item["target"], item.get("up", (0.0, 1.0, 0.0)), item.get("fov")
-    )
-    return CameraSpec(origin, target, up, fov)
+    def where(self, view: str) -> str:
+        """How errors name the camera of ``view``: its file and index for a camera file."""
+        if self.kind != "file":
+            return f"camera {view}"
+        return f"{self.text}: camera {self._index.get(view, view)}"
+
+    @classmethod
+    def of_cameras(cls, cameras: Sequence[Camera], source: str = "cameras") -> ViewSpec:
+        """The views of ``cameras`` given in memory, named by their ids (``cam_000`` ... where
+        unset); ``text`` (what ``resume`` compares) holds a digest of the cameras, so a changed
+        camera is rendered again."""
+        cams = _named(list(cameras), source)
+        digest = hashlib.sha256(to_json(cams).encode()).hexdigest()[:16]
+        return cls(f"{len(cams)} cameras {digest}", "cameras", len(cams), cameras=cams)
 
 
-def read_cameras(path: str | os.PathLike[str]) -> tuple[tuple[str, CameraSpec], ...]:
-    """The cameras of a JSON file (a list, or ``{"cameras": [...]}``), checked, by view id."""
-    name = os.fspath(path)
-    try:
-        with open(name, encoding="utf-8") as f:
-            data = json.load(f)
-    except OSError as e:
-        raise ParameterError(f"{name}: cannot read the cameras ({e.strerror})") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ParameterError(f"{name}: not a JSON file of cameras ({e})") from None
-    if isinstance(data, dict) and "cameras" in data:
-        data = data["cameras"]
-    if not isinstance(data, list) or not data:
-        raise ParameterError(f"{name}: expected a non-empty list of cameras")
-    check_arg(name, _view_param("file"), len(data))
-    out: list[tuple[str, CameraSpec]] = []
-    seen: set[str] = set()
-    for k, item in enumerate(data):
-        where = f"{name}: camera {k}"
-        vid = item.get("id", f"cam_{k:03d}") if isinstance(item, dict) else ""
-        if not isinstance(vid, str) or not _VIEW_ID.match(vid) or vid in ("scene",):
-            raise ParameterError(f"{where}: id {vid!r} is not a valid file stem")
+def _named(cameras: list[Any], source: str) -> tuple[Camera, ...]:
+    """``cameras`` with ids (``cam_%03d`` where unset), checked unique and not ``scene``."""
+    if not cameras or not all(isinstance(c, Camera) for c in cameras):
+        raise ParameterError(f"{source}: expected a non-empty list of mi_npr.camera.Camera")
+    out, seen = [], set()
+    for k, c in enumerate(cameras):
+        vid = c.id if c.id is not None else f"cam_{k:03d}"
+        if vid == "scene":
+            raise ParameterError(f"{source}: camera {k}: id 'scene' names the scene's own view")
         if vid in seen:
-            raise ParameterError(f"{where}: id {vid!r} is used twice")
+            raise ParameterError(f"{source}: camera {k}: id {vid!r} is used twice")
         seen.add(vid)
-        out.append((vid, _camera(where, item)))
+        out.append(c if c.id == vid else replace(c, id=vid))
     return tuple(out)
 
 
@@ -170,7 +137,9 @@ def parse_views(text: str) -> ViewSpec:
                 )
         return ViewSpec(text, kind, n, option)
     if text.lower().endswith(".json") or os.path.isfile(text):
-        return ViewSpec(text, "file", cameras=read_cameras(text))
+        cams = _named(read_cameras(text), text)
+        check_arg(text, _view_param("file"), len(cams))
+        return ViewSpec(text, "file", len(cams), cameras=cams)
     raise ParameterError(
         f"views = {text!r}: expected scene, orbit:N, sphere:N, best:K or FILE.json"
     )
@@ -179,92 +148,18 @@ def parse_views(text: str) -> ViewSpec:
 # -- cameras of a loaded scene ----------------------------------------------------------------
 
 
-def _pose(sensor: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
-    """A sensor's origin, view direction, up vector and horizontal fov."""
-    from .scene import camera_of
-
-    cam = camera_of(sensor)
-    m = np.asarray(cam.to_world, np.float64)
-    return m[:3, 3].copy(), m[:3, 2].copy(), m[:3, 1].copy(), cam.fov
-
-
-def sensor_camera(sensor: Any, target: Sequence[float] | None = None) -> CameraSpec:
-    """The :class:`CameraSpec` of a sensor (its target one unit ahead unless given)."""
-    o, d, up, fov = _pose(sensor)
-    t = o + d if target is None else np.asarray(target, np.float64)
-    return CameraSpec(_t3(o), _t3(t), _t3(up), fov)
-
-
-def _t3(v: Any) -> tuple[float, float, float]:
-    a = np.asarray(v, np.float64).reshape(3)
-    return (float(a[0]) + 0.0, float(a[1]) + 0.0, float(a[2]) + 0.0)
-
-
-def orbit(scene: Any, sensor: Any, n: int) -> list[CameraSpec]:
-    """``n`` cameras on the circle around the up axis through the bounding sphere's centre,
-    at the sensor's distance and elevation, the first one at the sensor's azimuth."""
-    from .viewpoint.search import nearest_axis
-
-    o, _, up_s, fov = _pose(sensor)
-    bs = scene.bbox().bounding_sphere()
-    c = np.asarray(bs.center, np.float64).reshape(-1)[:3]
-    if not np.all(np.isfinite(c)):
-        c = np.zeros(3)
-    up = nearest_axis(up_s)  # the world axis nearest the sensor's up (best view's)
-    rel = o - c
-    h = float(rel @ up)  # height above the centre
-    flat = rel - h * up
-    r = float(np.linalg.norm(flat))
-    if r < 1e-9:  # looking straight down the up axis: any azimuth, at the same distance
-        flat = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 0.0, 1.0])
-        r, flat = 1e-6, flat / np.linalg.norm(flat) * 1e-6
-    e1 = flat / r
-    e2 = np.cross(up, e1)
-    out = []
-    for k in range(n):
-        a = 2.0 * math.pi * k / n
-        origin = c + h * up + r * (math.cos(a) * e1 + math.sin(a) * e2)
-        out.append(_look(origin, c, up, fov))
-    return out
-
-
-def _look(origin: np.ndarray, target: np.ndarray, world_up: np.ndarray, fov: float | None):
-    from .viewpoint import view_frame
-
-    _, _, up = view_frame(origin, target, world_up)
-    return CameraSpec(_t3(origin), _t3(target), _t3(up), fov)
-
-
-def sphere(scene: Any, sensor: Any, n: int, upper: bool = True) -> list[CameraSpec]:
+def sphere(scene: Any, sensor: Any, n: int, upper: bool = True) -> list[Camera]:
     """``n`` cameras at Fibonacci-lattice directions on best view's viewing sphere (its centre,
-    radius and up axis; only the upper half with ``upper``), looking at its centre."""
-    from .viewpoint import fibonacci_sphere
+    radius and up axis; only the upper half with ``upper``), looking at its centre
+    (:func:`mi_npr.camera.sphere_directions`, :func:`mi_npr.camera.on_sphere`)."""
     from .viewpoint.search import viewing
 
     view = viewing(scene, res=32, sensor=sensor, allow_below=not upper)
-    if upper:  # the lattice of 2n points is symmetric: its n points with y > 0 are a half
-        d = fibonacci_sphere(2 * n)
-        d = d[d[:, 1] > 0][:n]
-    else:
-        d = fibonacci_sphere(n)
-    # The lattice's pole is +y: turn it onto the up axis.
-    d = d @ _rotation_y_to(view.up).T
-    return [_look(o, view.target, view.up, view.fov) for o in view.origins(d)]
+    d = sphere_directions(n, view.up, upper)
+    return on_sphere(d, view.target, view.radius, view.up, view.fov)
 
 
-def _rotation_y_to(up: np.ndarray) -> np.ndarray:
-    """The rotation taking +y onto the unit vector ``up`` (an axis, or any direction)."""
-    y = np.array([0.0, 1.0, 0.0])
-    u = np.asarray(up, np.float64) / np.linalg.norm(up)
-    v = np.cross(y, u)
-    c = float(y @ u)
-    if np.linalg.norm(v) < 1e-12:
-        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx / (1.0 + c)
-
-
-def best(scene: Any, sensor: Any, k: int, measure: str = "entropy") -> list[CameraSpec]:
+def best(scene: Any, sensor: Any, k: int, measure: str = "entropy") -> list[Camera]:
     """The ``k`` best-rated viewpoints of best view's search (best first, ties in evaluation
     order)."""
     from .viewpoint.search import check_shapes, search, viewing
@@ -278,31 +173,22 @@ def best(scene: Any, sensor: Any, k: int, measure: str = "entropy") -> list[Came
     out = []
     for i in order:
         v = bv.view(int(i))
-        out.append(CameraSpec(_t3(v.origin), _t3(v.target), _t3(v.up), float(bv.fov)))
+        out.append(Camera(v.origin, v.target, v.up, float(bv.fov)))
     return out
 
 
-def cameras(spec: ViewSpec, scene: Any, sensor: Any) -> list[tuple[str, CameraSpec | None]]:
+def cameras(spec: ViewSpec, scene: Any, sensor: Any) -> list[tuple[str, Camera | None]]:
     """The views of ``spec`` for a loaded scene seen by ``sensor``: ``(view id, camera)``;
     the camera is ``None`` for the ``scene`` view (the sensor itself is rendered)."""
     ids = spec.ids()
     if spec.kind == "scene":
         return [("scene", None)]
-    if spec.kind == "file":
-        return list(spec.cameras)
+    if spec.kind in ("file", "cameras"):
+        return [(str(c.id), c) for c in spec.cameras]
     if spec.kind == "orbit":
-        cams = orbit(scene, sensor, spec.n)
+        cams = orbit(scene, spec.n, sensor=sensor)
     elif spec.kind == "sphere":
         cams = sphere(scene, sensor, spec.n, upper=spec.option != "all")
     else:
         cams = best(scene, sensor, spec.n, spec.option)
     return list(zip(ids, cams, strict=True))
-
-
-def sensor_for(camera: CameraSpec, like: Any) -> Any:
-    """A ``perspective`` sensor at ``camera`` with the film size, reconstruction filter,
-    sampler, clip planes (and fov, when the camera has none) of the sensor ``like``
-    (:func:`mi_npr.scene.sensor_at`)."""
-    from .scene import sensor_at
-
-    return sensor_at(like, camera.origin, camera.target, camera.up, camera.fov)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import mi_npr
-from mi_npr import Camera, GBuffer, ParameterError
+from mi_npr import GBuffer, ParameterError, Projection
 
 
 def test01_layers_are_contiguous_and_typed():
@@ -57,12 +57,12 @@ def test04_equality_is_bit_exact_with_nan():
 def test05_camera_dict_round_trip():
     m = np.eye(4)
     m[:3, 3] = [1, 2, 3]
-    cam = Camera(m, (64, 48), 45.0, "perspective", 0.01, 100.0)
-    assert Camera.from_dict(cam.to_dict()) == cam
+    cam = Projection(m, (64, 48), 45.0, "perspective", 0.01, 100.0)
+    assert Projection.from_dict(cam.to_dict()) == cam
     np.testing.assert_array_equal(cam.origin, [1, 2, 3])
     np.testing.assert_array_equal(cam.forward, [0, 0, 1])
     with pytest.raises(ParameterError, match="camera"):
-        Camera.from_dict({"fov": 3})
+        Projection.from_dict({"fov": 3})
 
 
 def test06_accepts_drjit_tensors_without_copy():

@@ -8,7 +8,7 @@ import numpy as np
 import OpenEXR
 import pytest
 
-from mi_npr import Camera, GBuffer, InputError, OutputError
+from mi_npr import GBuffer, InputError, OutputError, Projection
 from mi_npr.io import exr as exr_module
 from mi_npr.io import read_exr, write_exr
 
@@ -34,7 +34,7 @@ def _gbuffer(h=5, w=7, seed=0) -> GBuffer:
         "raytree_hi.V": hashes,
         "my_ids": ids // 5,  # a user's integer layer
     }
-    cam = Camera(np.diag([1.0, 1.0, 1.0, 1.0]), (w, h), 45.0, "perspective", 0.01, 1e4)
+    cam = Projection(np.diag([1.0, 1.0, 1.0, 1.0]), (w, h), 45.0, "perspective", 0.01, 1e4)
     meta = {"mi_npr/scene": "x.xml", "mi_npr/spp": "4"}
     return GBuffer(layers, {1: "floor", 2: "sphere", 3: "ünïcode name"}, cam, meta)
 

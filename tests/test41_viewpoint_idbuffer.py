@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import mi_npr
+from mi_npr.camera import view_frame
 from mi_npr.meshes import uv_sphere, write_ply
-from mi_npr.viewpoint import areas, polygons, view_frame
+from mi_npr.viewpoint import areas, polygons
 
 MIXED = (
     '<shape type="ply" id="ball"><string name="filename" value="{ply}"/></shape>'

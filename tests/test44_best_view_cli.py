@@ -70,7 +70,7 @@ def test01_writes_a_sensor_that_reproduces_the_view(scene_path, tmp_path, capsys
     mi = mi_npr.mi
     cam_scene = mi.load_file(str(out / "toy_best_view.xml"))
     (sensor,) = cam_scene.sensors()
-    cam = mi_npr.camera_of(sensor)
+    cam = mi_npr.projection_of(sensor)
     np.testing.assert_allclose(cam.origin, info["origin"], atol=1e-5)
     np.testing.assert_allclose(cam.up, info["up"], atol=1e-5)
     assert cam.fov == pytest.approx(50.0) and cam.resolution == (40, 30)
@@ -169,7 +169,7 @@ def test05_a_scene_without_sensor(tmp_path, capsys):
     info = json.loads(stdout)
     assert info["fov"] == 45.0 and info["res"] == [16, 16]
     (sensor,) = mi_npr.mi.load_file(str(out / "bare_best_view.xml")).sensors()
-    assert mi_npr.camera_of(sensor).resolution == (512, 512)
+    assert mi_npr.projection_of(sensor).resolution == (512, 512)
     assert sensor.sampler().sample_count() == 16
 
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from mi_npr import cli
-from mi_npr.viewpoint import fibonacci_sphere, plots_missing, sphere_image
+from mi_npr.camera import fibonacci_sphere
+from mi_npr.viewpoint import plots_missing, sphere_image
 
 from .test44_best_view_cli import BODY
 

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 import mi_npr
+from mi_npr.camera import fibonacci_sphere
 from mi_npr.meshes import uv_sphere, write_ply
-from mi_npr.viewpoint import areas, best_view, fibonacci_sphere, idbuffer, search, write_best_view
+from mi_npr.viewpoint import areas, best_view, idbuffer, search, write_best_view
 
 from .helpers import run_cli
 

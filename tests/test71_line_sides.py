@@ -236,8 +236,8 @@ def test10_crease_side_follows_the_gbuffers_camera():
     theta = np.where(np.arange(w) < 4, 10.0, 60.0)[None, :].repeat(h, 0)
     N = normals_from_angles(theta, (h, w))
     layers = gbuffer(np.full((h, w), 5.0, np.float32), np.ones((h, w), np.uint32), N)
-    front = mi_npr.Camera(np.eye(4), (w, h), 40.0)
-    back = mi_npr.Camera(np.diag([-1.0, 1.0, -1.0, 1.0]), (w, h), 40.0)
+    front = mi_npr.Projection(np.eye(4), (w, h), 40.0)
+    back = mi_npr.Projection(np.diag([-1.0, 1.0, -1.0, 1.0]), (w, h), 40.0)
     a = np.asarray(K.lines(mi_npr.GBuffer(layers, camera=front), id_edges=False))
     b = np.asarray(K.lines(mi_npr.GBuffer(layers, camera=back), id_edges=False))
     assert np.all(a[:, 3] == 1) and a.sum() == h  # theta 10 faces +z more: column 3

@@ -13,6 +13,7 @@ import pytest
 
 import mi_npr
 from mi_npr import views as V
+from mi_npr.camera import orbit
 from mi_npr.session import SceneSession
 from mi_npr.viewpoint.search import viewing
 
@@ -59,7 +60,7 @@ def test02_bad_specs_are_one_line_errors(spec, words):
         ({"x": 1}, "non-empty"),
         ([{"origin": [0, 0, 0]}], "target"),
         ([{"origin": [0, 0, 0], "target": [0, 0, 0]}], "same point"),
-        ([{"origin": [0, 0, 0], "target": [0, 1, 0]}], "parallel"),
+        ([{"origin": [0, 0, 0], "target": [0, 1, 0], "up": [0, 1, 0]}], "parallel"),
         ([{"origin": [0, 0, "a"], "target": [0, 0, 1]}], "origin"),
         ([{"origin": [0, 0, 0], "target": "001"}], "target"),
         ([{"origin": [0, 0, float("nan")], "target": [0, 0, 1]}], "origin"),
@@ -87,7 +88,7 @@ def test04_orbit_closed_form(write_scene):
     path = write_scene(BODY, origin="0, 1, -4", target="0, 0, 0")
     s = SceneSession.open(path)
     n = 8
-    cams = V.orbit(s.scene, s.sensor, n)
+    cams = orbit(s.scene, n, sensor=s.sensor)
     for k, cam in enumerate(cams):
         a = 2 * math.pi * k / n
         x, z = 0.0, -4.0

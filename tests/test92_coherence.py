@@ -9,7 +9,7 @@ import pytest
 from mi_npr import GBuffer, ParameterError
 from mi_npr import layers as L
 from mi_npr.coherence import popping, reproject
-from mi_npr.gbuffer import Camera
+from mi_npr.gbuffer import Projection
 from mi_npr.projection import project
 
 W, H, FOV = 48, 32, 50.0
@@ -53,7 +53,7 @@ def _step_scene(origin):
     layers = {n: Pw[..., k].astype(np.float32) for k, n in enumerate(L.P)}
     layers[L.Z] = (Pw[..., 2] - origin[2]).astype(np.float32)  # the camera looks along +z
     M = np.asarray(s.world_transform().matrix, np.float64).reshape(4, 4)
-    return layers, Camera(M, (W, H), FOV), near
+    return layers, Projection(M, (W, H), FOV), near
 
 
 def _frame(layers, cam, ink):

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from mi_npr import camera as C
 from mi_npr import paths as P
 from mi_npr.cli import main
 from mi_npr.io import read_exr
@@ -33,13 +34,13 @@ def test01_frames_drawings_and_path(explored):
         for suffix in (".exr", ".png", "_lines.png", "_contours.png"):
             assert (explored / f"frame_{i:04d}{suffix}").is_file()
     assert not (explored / "frame_0005.exr").exists()
-    cams = P.from_json((explored / "path.json").read_text())
+    cams = C.from_json((explored / "path.json").read_text())
     assert len(cams) == 5 and [c.time for c in cams] == pytest.approx(np.linspace(0, 1, 5))
     # each frame's EXR camera is the path's camera
     for i in (0, 4):
         cam = read_exr(explored / f"frame_{i:04d}.exr").camera
         np.testing.assert_allclose(cam.origin, cams[i].origin, atol=1e-4)
-        np.testing.assert_allclose(cam.forward, cams[i].direction, atol=1e-4)
+        np.testing.assert_allclose(cam.forward, cams[i].forward, atol=1e-4)
         assert cam.resolution == (40, 30) and cam.fov == pytest.approx(cams[i].fov, abs=1e-4)
     assert not list(explored.glob(".*.tmp"))
     assert cams == P.explore(SCENE3, 5, "entropy", ignore=["floor"])  # the flag reached explore
@@ -59,14 +60,14 @@ def test02_coherence_json_and_videos(explored):
 
 def test03_keys_and_mp4(tmp_path):
     keys = [
-        P.PathCamera((4, 3, -4), (0, 0.5, 0), (0, 1, 0), 40),
-        P.PathCamera((-4, 3, -4), (0, 0.5, 0), (0, 1, 0), 45),
+        C.Camera((4, 3, -4), (0, 0.5, 0), (0, 1, 0), 40),
+        C.Camera((-4, 3, -4), (0, 0.5, 0), (0, 1, 0), 45),
     ]
-    (tmp_path / "keys.json").write_text(P.to_json(keys))
+    (tmp_path / "keys.json").write_text(C.to_json(keys))
     out = tmp_path / "o"
     argv = ["path", SCENE3, "-o", str(out), "--frames", "3", "--keys", str(tmp_path / "keys.json")]
     assert main([*argv, "--video", "mp4", *SMALL]) == 0
-    cams = P.from_json((out / "path.json").read_text())
+    cams = C.from_json((out / "path.json").read_text())
     np.testing.assert_allclose(cams[0].origin, keys[0].origin)
     np.testing.assert_allclose(cams[-1].origin, keys[1].origin)
     data = (out / "beauty.mp4").read_bytes()
@@ -77,8 +78,8 @@ def test03_keys_and_mp4(tmp_path):
 
 def test04_orbit_is_the_default(tmp_path):
     assert main(["path", SCENE3, "-o", str(tmp_path), "--frames", "2", *SMALL]) == 0
-    cams = P.from_json((tmp_path / "path.json").read_text())
-    assert cams == P.orbit(SCENE3, 2)
+    cams = C.from_json((tmp_path / "path.json").read_text())
+    assert cams == C.orbit(SCENE3, 2)
     assert not (tmp_path / "coherence.json").exists()  # nothing drawn: nothing to measure
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from mi_npr import ParameterError
+from mi_npr import camera as C
 from mi_npr import layers as L
 from mi_npr import paths as P
 from mi_npr.coherence import VARIANTS, line_variants, variant_lines
@@ -46,7 +47,7 @@ def test02_prefilter_variants_and_bad_names():
 
 
 def test03_a_static_camera_does_not_pop_in_real_frames(tmp_path):
-    cam = P.orbit(SCENE3, 1)[0]
+    cam = C.orbit(SCENE3, 1)[0]
     fr = P.render_frames(
         SCENE3, [cam, cam, cam], tmp_path, ["lines"], resolution=(48, 36), spp=1, variants=True
     )
@@ -58,7 +59,7 @@ def test03_a_static_camera_does_not_pop_in_real_frames(tmp_path):
 
 
 def test04_a_moving_camera_pops_a_little(tmp_path):
-    cams = P.orbit(SCENE3, 4, 12.0)
+    cams = C.orbit(SCENE3, 4, 12.0)
     fr = P.render_frames(SCENE3, cams, tmp_path, ["lines"], resolution=(64, 48), spp=1)
     c = fr.coherence
     assert len(c["per_frame"]) == 3 and 0 < c["overall"] < 0.5

@@ -8,6 +8,7 @@ import json
 
 import numpy as np
 
+from mi_npr import camera as C
 from mi_npr import layers as L
 from mi_npr import paths as P
 from mi_npr.io import read_exr
@@ -19,7 +20,7 @@ SIZE = {"resolution": (40, 30), "spp": 1}
 
 
 def test01_frames_as_jobs_equal_the_in_process_frames(tmp_path):
-    cams = P.orbit(SCENE3, 3, 20.0)
+    cams = C.orbit(SCENE3, 3, 20.0)
     here = P.render_frames(SCENE3, cams, tmp_path / "here", ["lines", "contours"], **SIZE)
     jobs = P.render_frames(
         SCENE3, cams, tmp_path / "jobs", ["lines", "contours"], cluster={"workers": 0}, **SIZE
@@ -37,7 +38,7 @@ def test01_frames_as_jobs_equal_the_in_process_frames(tmp_path):
 
 
 def test02_a_resumed_path_redoes_no_frame(tmp_path):
-    cams = P.orbit(SCENE3, 2, 10.0)
+    cams = C.orbit(SCENE3, 2, 10.0)
     out = tmp_path / "p"
     P.render_frames(SCENE3, cams, out, ["lines"], cluster={"workers": 0}, **SIZE)
     stamp = {p.name: p.stat().st_mtime_ns for p in out.glob("frame_*.exr")}

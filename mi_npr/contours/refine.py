@@ -78,9 +78,10 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..camera import projection_of
 from ..errors import ParameterError
 from ..raycast import cast, film_size, pixel_centres, pixel_rays
-from ..scene import camera_of, merge_defines
+from ..scene import merge_defines
 from ..session import SceneSession
 from .contour import Contour
 from .idmode import IdMap, check_id_mode, id_map
@@ -283,7 +284,7 @@ class RayCaster(Caster):
             return np.zeros((0, 4)), np.zeros(0, dtype=bool)
         sel = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
         corners = boxes[:, sel, [0, 1, 2]]  # (K, 8, 3)
-        cam = camera_of(self.sensor)
+        cam = projection_of(self.sensor)
         depth = (corners - cam.origin) @ cam.forward
         flat = corners.reshape(-1, 3).astype(np.float32)
         try:

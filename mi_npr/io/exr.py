@@ -50,7 +50,7 @@ import OpenEXR
 from .. import layers as L
 from .._version import __version__
 from ..errors import InputError, NprError, OutputError, check_input_file
-from ..gbuffer import Camera, GBuffer
+from ..gbuffer import GBuffer, Projection
 from ..projection import world_to_camera, world_to_ndc
 from ._atomic import atomic_output
 
@@ -208,7 +208,7 @@ def read_exr(path: str | os.PathLike[str]) -> GBuffer:
         raise InputError(f"{p}: no channels")
     try:
         objects = {int(k): v for k, v in json.loads(header.get(_OBJECTS, "{}")).items()}
-        camera = Camera.from_dict(json.loads(header[_CAMERA])) if _CAMERA in header else None
+        camera = Projection.from_dict(json.loads(header[_CAMERA])) if _CAMERA in header else None
     except (ValueError, TypeError, AttributeError) as e:
         raise InputError(f"{p}: malformed mi-npr header ({e})") from None
     skip = {_OBJECTS, _CAMERA, _LAYERS, _INTEGER}

@@ -18,10 +18,10 @@
 from __future__ import annotations
 
 from .camera import plots_missing, sensor_xml, sphere_image
-from .idbuffer import areas, polygons, sparse_areas, view_frame
+from .idbuffer import areas, polygons, sparse_areas
 from .measures import MEASURES, SparseAreas, curvature, entropy, pb, vertex_curvature
 from .outputs import view_warning, write_best_view
-from .search import BestView, best_view, fibonacci_sphere, qualities, quality, quality_map
+from .search import BestView, best_view, qualities, quality, quality_map
 
 __all__ = [
     "MEASURES",
@@ -31,7 +31,6 @@ __all__ = [
     "best_view",
     "curvature",
     "entropy",
-    "fibonacci_sphere",
     "pb",
     "plots_missing",
     "polygons",
@@ -42,7 +41,6 @@ __all__ = [
     "sparse_areas",
     "sphere_image",
     "vertex_curvature",
-    "view_frame",
     "view_warning",
     "write_best_view",
 ]

@@ -1,13 +1,11 @@
 """The best view as a Mitsuba camera, and the viewing sphere as a picture.
 
-:func:`sensor_xml` writes a :class:`~mi_npr.viewpoint.BestView` as a ``perspective`` sensor with
-a ``lookat`` transform, and with the field of view, clip planes, sampler and film (size and
-reconstruction filter; not a crop window, since the view is rated over the whole film) of the
-scene's own sensor. The ``<sensor>`` element is wrapped in a
-``<scene version="3.0.0">`` root, because Mitsuba loads or includes only files with a versioned
-root and rejects a ``version`` attribute on a nested ``<sensor>``: so the file loads on its own
-(``mi.load_file`` gives a scene with that one sensor), ``<include filename="..."/>`` adds its
-sensor to a scene, and the ``<sensor>`` element can be pasted into a scene in place of its own.
+:func:`sensor_xml` writes a :class:`~mi_npr.viewpoint.BestView` as a Mitsuba scene file holding
+one ``perspective`` sensor (:func:`mi_npr.camera.sensor_xml`, the one writer of a camera as a
+sensor): its ``lookat`` and the search's field of view, with the clip planes, sampler and film
+(size and reconstruction filter; not a crop window, since the view is rated over the whole film)
+of the scene's own sensor. The file loads on its own, can be ``<include>``d in a scene, and its
+``<sensor>`` element pasted into one.
 
 :func:`sphere_image` draws the quality over the viewing sphere with matplotlib (the ``plots``
 extra): two orthographic views of the sphere, the hemisphere facing ``front`` and the opposite
@@ -24,113 +22,33 @@ import math
 import mitsuba as mi
 import numpy as np
 
-from ..io.text import quoteattr
-from ..scene import camera_of, sensor_of
+from .. import camera as C
+from ..camera.sensor import DEFAULT_WIDTH
+from ..scene import sensor_of
 from .search import BestView
-
-_FILTERS = {
-    "BoxFilter": "box",
-    "TentFilter": "tent",
-    "GaussianFilter": "gaussian",
-    "LanczosSincFilter": "lanczos",
-    "MitchellNetravaliFilter": "mitchell",
-    "CatmullRomFilter": "catmullrom",
-}
-_SAMPLERS = {
-    "IndependentSampler": "independent",
-    "StratifiedSampler": "stratified",
-    "MultijitterSampler": "multijitter",
-    "OrthogonalSampler": "orthogonal",
-    "LowDiscrepancySampler": "ldsampler",
-}
-
-
-def _vec(v: np.ndarray) -> str:
-    return ", ".join(f"{float(x) + 0.0:.9g}" for x in v)  # + 0.0: no "-0"
-
-
-def _rfilter_xml(film: mi.Film) -> str:
-    rf = film.rfilter()
-    kind = _FILTERS.get(rf.class_name())
-    if kind is None:  # an unknown filter: hdrfilm's default (gaussian) rather than a bad guess
-        return ""
-    r = float(rf.radius())
-    if kind == "gaussian":  # Mitsuba's gaussian has radius = 4 stddev
-        return f'<rfilter type="gaussian"><float name="stddev" value="{r / 4:.9g}"/></rfilter>'
-    if kind == "tent":
-        return f'<rfilter type="tent"><float name="radius" value="{r:.9g}"/></rfilter>'
-    if kind == "lanczos":
-        return f'<rfilter type="lanczos"><integer name="lobes" value="{round(r)}"/></rfilter>'
-    return f'<rfilter type="{kind}"/>'
-
-
-#: Film and sampler written for a scene that has no sensor to copy them from.
-DEFAULT_WIDTH = 512
-DEFAULT_SPP = 16
-
-
-def _sensor_settings(best: BestView, scene: mi.Scene, sensor: int | mi.Sensor) -> dict:
-    """What the written sensor copies from the scene's (module docstring)."""
-    if not scene.sensors() and not isinstance(sensor, mi.Sensor):
-        w = DEFAULT_WIDTH
-        h = max(1, round(w * best.size[1] / best.size[0]))
-        return dict(near=1e-2, far=1e4, size=(w, h), rfilter="", sampler="independent",
-                    spp=DEFAULT_SPP)  # fmt: skip
-    s = sensor_of(scene, sensor)
-    cam = camera_of(s)
-    film = s.film()
-    size = tuple(int(v) for v in film.size())
-    return dict(
-        near=cam.near_clip,
-        far=cam.far_clip,
-        size=size,
-        rfilter=_rfilter_xml(film),
-        sampler=_SAMPLERS.get(s.sampler().class_name(), "independent"),
-        spp=int(s.sampler().sample_count()),
-    )
 
 
 def sensor_xml(best: BestView, scene: mi.Scene, sensor: int | mi.Sensor = 0) -> str:
-    """The XML text of a file holding ``best`` as a Mitsuba sensor (module docstring).
+    """The XML text of a file holding ``best`` as a Mitsuba sensor with the id ``best_view``
+    (module docstring).
 
-    Copied from the scene's ``sensor``: near/far clip, sampler type and sample count, film
-    width/height (not its crop window: the view is rated, and written, for the whole film),
-    reconstruction filter (type and size; a ``mitchell`` filter's
-    B and C fall back to their defaults). Written: ``fov`` = the horizontal field of view used
-    by the search, with ``fov_axis="x"``. A scene without a sensor gets a ``DEFAULT_WIDTH``
-    pixel wide film of the search's aspect ratio, ``DEFAULT_SPP`` samples per pixel.
+    Copied from the scene's ``sensor``: what :func:`mi_npr.camera.sensor_xml` copies. Written:
+    ``fov`` = the horizontal field of view used by the search. A scene without a sensor gets a
+    :data:`mi_npr.camera.sensor.DEFAULT_WIDTH` pixel wide film of the search's aspect ratio and
+    :data:`~mi_npr.camera.sensor.DEFAULT_SPP` samples per pixel.
     """
-    st = _sensor_settings(best, scene, sensor)
-    w, h = st["size"]
-    rfilter = f"\n            {st['rfilter']}" if st["rfilter"] else ""
+    like, size = None, None
+    if scene.sensors() or isinstance(sensor, mi.Sensor):
+        like = sensor_of(scene, sensor)
+    else:
+        w = DEFAULT_WIDTH
+        size = (w, max(1, round(w * best.size[1] / best.size[0])))
     comment = (
         f"best view by mi-npr: measure {best.measure}, quality {best.quality:.6g}, "
         f"depth {best.depth}, {best.evaluations} evaluations at {best.size[0]}x{best.size[1]}"
     )
-    return f"""<?xml version="1.0" encoding="utf-8"?>
-<!-- {comment}.
-     Load this file on its own, <include> it in a scene, or paste the <sensor> element. -->
-<scene version="3.0.0">
-    <sensor type="perspective" id={quoteattr("best_view")}>
-        <float name="fov" value="{best.fov:.9g}"/>
-        <string name="fov_axis" value="x"/>
-        <float name="near_clip" value="{st["near"]:.9g}"/>
-        <float name="far_clip" value="{st["far"]:.9g}"/>
-        <transform name="to_world">
-            <lookat origin="{_vec(best.origin)}"
-                    target="{_vec(best.target)}"
-                    up="{_vec(best.up)}"/>
-        </transform>
-        <sampler type="{st["sampler"]}">
-            <integer name="sample_count" value="{st["spp"]}"/>
-        </sampler>
-        <film type="hdrfilm">
-            <integer name="width" value="{w}"/>
-            <integer name="height" value="{h}"/>{rfilter}
-        </film>
-    </sensor>
-</scene>
-"""
+    cam = C.Camera(best.origin, best.target, best.up, best.fov)
+    return C.sensor_xml(cam, like, size=size, name="best_view", comment=comment)
 
 
 # -- the viewing sphere as a picture ----------------------------------------------------------
@@ -162,9 +80,7 @@ def _interpolate(points: np.ndarray, directions: np.ndarray, values: np.ndarray)
 
 
 def _disc_frame(front: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    from .idbuffer import view_frame
-
-    _, left, up = view_frame(front, np.zeros(3))  # a camera at `front` looking at the centre
+    _, left, up = C.view_frame(front, np.zeros(3))  # a camera at `front` looking at the centre
     return -left, up  # image right, image up
 
 

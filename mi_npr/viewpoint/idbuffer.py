@@ -14,8 +14,8 @@ primitive, and adds no curvature to eq. 2.
 
 **Cameras.** Every viewpoint is a pinhole camera at ``origin`` looking at ``target``, with the
 horizontal field of view ``fov`` (degrees) and a ``width x height`` image, oriented like
-Mitsuba's ``lookat`` with the ``up`` vector of :func:`view_frame`. The ray of pixel ``(x, y)``
-goes through its exact centre ``(x + 0.5, y + 0.5)``, like the G-buffer pass
+Mitsuba's ``lookat`` with the ``up`` vector of :func:`mi_npr.camera.view_frame`. The ray of
+pixel ``(x, y)`` goes through its exact centre ``(x + 0.5, y + 0.5)``, like the G-buffer pass
 (:mod:`mi_npr.render`), so the ID buffer of a viewpoint equals the ``object_id`` / ``prim_id``
 layers of a Mitsuba ``perspective`` sensor at that pose (checked in the tests), except for back
 faces (below). The rays of V viewpoints (``V x width x height`` lanes) are built and cast by
@@ -46,6 +46,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..camera import view_frame
 from ..errors import ParameterError, SceneError, one_line
 from ..raycast import cast, pinhole_rays
 from ..raycast import require_jit as _require_jit
@@ -228,33 +229,6 @@ def _topology(polys: Polygons) -> Topology:
 
 
 # -- cameras ----------------------------------------------------------------------------------
-
-
-def view_frame(
-    origin: np.ndarray, target: np.ndarray, up: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(forward, left, up)`` unit vectors of cameras at ``origin`` (..., 3) looking at ``target``.
-
-    Mitsuba's ``lookat`` convention (camera +z forward, +y up, +x left). ``up`` is the preferred
-    up direction (default +y); where the view direction is within ~8 degrees of it, the world
-    axis least aligned with the view direction is used instead, so the frame never degenerates.
-    The returned ``up`` is orthogonal to ``forward``.
-    """
-    o = np.asarray(origin, np.float64)
-    t = np.broadcast_to(np.asarray(target, np.float64), o.shape)
-    f = t - o
-    norm = np.linalg.norm(f, axis=-1, keepdims=True)
-    if np.any(norm <= 0):
-        raise ParameterError("origin and target coincide: no view direction")
-    f = f / norm
-    u0 = np.array([0.0, 1.0, 0.0]) if up is None else np.asarray(up, np.float64)
-    u0 = np.broadcast_to(u0 / np.linalg.norm(u0), f.shape)
-    bad = np.abs((f * u0).sum(-1)) > 0.99
-    axis = np.eye(3)[np.argmin(np.abs(f), axis=-1)]
-    u = np.where(bad[..., None], axis, u0)
-    left = np.cross(u, f)
-    left /= np.linalg.norm(left, axis=-1, keepdims=True)
-    return f, left, np.cross(f, left)
 
 
 def image_size(res: int, aspect: float) -> tuple[int, int]:

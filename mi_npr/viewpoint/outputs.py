@@ -30,23 +30,16 @@ import mitsuba as mi
 import numpy as np
 
 from .. import io
+from ..camera import camera_of, fibonacci_sphere
 from ..errors import SceneError
 from ..params import check_arg, entry
 from ..render import render
-from ..scene import camera_of, load_scene, merge_defines, sensor_of
+from ..scene import load_scene, merge_defines, sensor_of
 from ..session import resize_sensor
 from . import idbuffer
 from .camera import plots_missing, sensor_xml, sphere_image
 from .measures import check_measure
-from .search import (
-    SEARCH_PARAMS,
-    BestView,
-    Viewing,
-    check_shapes,
-    fibonacci_sphere,
-    search,
-    viewing,
-)
+from .search import SEARCH_PARAMS, BestView, Viewing, check_shapes, search, viewing
 
 #: Extra viewpoints rated for the quality sphere picture (Fibonacci lattice, allowed side
 #: only): none by default, the search's own evaluations are drawn.

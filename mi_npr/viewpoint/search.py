@@ -38,25 +38,29 @@ order above (+x, -x, +y, -y, +z, -z; octants in the order of :data:`OCTANTS`).
 
 Defaults, where the paper leaves them open:
 
-- ``target``: the centre of the scene's bounding sphere (Mitsuba's ``bbox().bounding_sphere()``).
-- ``fov``: the horizontal field of view of the scene's sensor (``sensor``-th, 45 degrees if it
-  has none, e.g. an orthographic one); the ID buffers have the sensor film's aspect ratio and
-  ``res`` pixels along its longer side, so the quality of the written camera is the one rated.
-  A scene without any sensor (built with ``mi.load_dict``) gets square 45 degree views.
+- ``target``: the centre of the scene's bounding sphere (Mitsuba's ``bbox().bounding_sphere()``,
+  :func:`mi_npr.camera.bounding_sphere`).
+- ``fov``: the horizontal field of view of the scene's sensor (``sensor``-th,
+  :data:`mi_npr.camera.DEFAULT_FOV` = 45 degrees if it has none, e.g. an orthographic one); the
+  ID buffers have the sensor film's aspect ratio and ``res`` pixels along its longer side, so
+  the quality of the written camera is the one rated. A scene without any sensor (built with
+  ``mi.load_dict``) gets square 45 degree views.
 - ``radius``: ``R / sin(phi / 2)`` with ``R`` the bounding-sphere radius and ``phi`` the smaller
-  of the horizontal and vertical fields of view: the distance at which the whole bounding
-  sphere just fits in the image (2.61 R for a square 45 degree view). With a ``target`` away
-  from the sphere's centre, ``R`` grows by that distance, so the scene still fits.
+  of the horizontal and vertical fields of view of the ID buffers
+  (:func:`mi_npr.camera.fit_distance`): the distance at which the whole bounding sphere just
+  fits in the image (2.61 R for a square 45 degree view). With a ``target`` away from the
+  sphere's centre, ``R`` grows by that distance, so the scene still fits.
 - ``ignore``: names of objects (a floor, a backdrop) whose pixels count as background: they
   still hide what is behind them, but add nothing to any measure, their polygons leave ``n``
   (eq. 1), and the default ``target`` and ``radius`` frame the other objects only. Large flat
   polygons otherwise decide most searches (a floor seen from straight above or below fills the
   image with one or two faces).
-- ``up``: the world axis closest to the scene sensor's up vector (the +y of its ``to_world``:
-  +y for a camera placed with ``lookat up="0, 1, 0"``, however it is tilted, +z for ``up="0, 0,
-  1"``), +y for a scene without a sensor. It is the side viewpoints stay on, and the preferred up
-  of every viewpoint's camera (the world axis least aligned with the view direction where that
-  is too close to it, :func:`~mi_npr.viewpoint.idbuffer.view_frame`).
+- ``up``: the scene's up axis (:func:`mi_npr.camera.up_axis`: the world axis closest to the
+  +y of the sensor's ``to_world``: +y for a camera placed with ``lookat up="0, 1, 0"``, however
+  it is tilted, +z for ``up="0, 0, 1"``), +y for a scene without a sensor. It is the side
+  viewpoints stay on, and the preferred up of every viewpoint's camera (the world axis least
+  aligned with the view direction where that is too close to it,
+  :func:`mi_npr.camera.view_frame`).
 """
 
 from __future__ import annotations
@@ -71,10 +75,19 @@ from typing import Any
 import mitsuba as mi
 import numpy as np
 
+from ..camera import (
+    DEFAULT_FOV,
+    bounding_sphere,
+    camera_of,
+    fibonacci_sphere,
+    fit_distance,
+    nearest_axis,
+    view_frame,
+)
 from ..errors import ParameterError, SceneError
 from ..memory import check_images
 from ..params import MAX_RES, MAX_VIEW_DEPTH, Param, check_arg, entry, integer_range
-from ..scene import camera_of, load_scene, sensor_of, shape_bbox
+from ..scene import load_scene, sensor_of
 from . import idbuffer
 from .measures import MEASURES, SparseAreas, Topology, check_measure
 
@@ -89,9 +102,6 @@ SEARCH_PARAMS: tuple[Param, ...] = (
     ),
     Param("res", int, 128, "ID buffer size, long side", integer_range(1, MAX_RES)),
 )
-
-#: Default horizontal field of view (degrees) when the scene's sensor has none.
-DEFAULT_FOV = 45.0
 
 AXES = np.array(
     [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=np.float64
@@ -185,38 +195,19 @@ def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray
 
 
 def _bounding_sphere(
-    scene: mi.Scene, polys: idbuffer.Polygons | None = None, ignore: Sequence[str] = ()
+    scene: mi.Scene, polys: idbuffer.Polygons, ignore: Sequence[str] = ()
 ) -> tuple[np.ndarray, float, float]:
     """The scene's bounding sphere, or that of the objects not in ``ignore`` (a floor left out
     of the measures is left out of the framing too), and the radius of the sphere of viewpoints
-    inside it (half the box's smallest half-extent; 0 for a flat scene)."""
-    if not scene.shapes():
-        return np.zeros(3), 0.0, 0.0
-    bb = scene.bbox()
-    if ignore and polys is not None:
+    inside it (:func:`mi_npr.camera.bounding_sphere`)."""
+    shapes = None
+    if ignore:
         kept = [s for k, s in polys.table.shapes.items() if polys.table.names[k] not in ignore]
-        if kept:
-            boxes = np.stack([shape_bbox(s) for s in kept])
-            bb = mi.ScalarBoundingBox3f(boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0))
-    bs = bb.bounding_sphere()
-    c = np.asarray(bs.center, np.float64).ravel()[:3]
-    r = float(np.asarray(bs.radius).ravel()[0])
+        shapes = kept or None
+    c, r, inner = bounding_sphere(scene, shapes)
     if not (np.all(np.isfinite(c)) and math.isfinite(r)):
         raise SceneError("the scene's bounding box is not finite: give target and radius")
-    extent = np.asarray(bb.max, np.float64).ravel()[:3] - np.asarray(bb.min, np.float64).ravel()[:3]
-    inner = 0.25 * float(extent.min())
-    # A flat scene has no inside: a quad rotated by 90 degrees is 1e-16 thick from rounding,
-    # and a camera on its plane would see it edge-on (or, on OptiX, hit it at t = 0).
-    return c, r, inner if inner > 1e-4 * r else 0.0
-
-
-def nearest_axis(v: np.ndarray) -> np.ndarray:
-    """The signed world axis closest to ``v``: a tilted camera's up vector (0, 0.95, 0.3) means
-    the world's +y is up."""
-    i = int(np.argmax(np.abs(v)))
-    axis = np.zeros(3)
-    axis[i] = 1.0 if v[i] >= 0 else -1.0
-    return axis
+    return c, r, inner
 
 
 def viewing(
@@ -258,10 +249,8 @@ def viewing(
         if tgt.shape != (3,) or not np.all(np.isfinite(tgt)):
             raise ParameterError(f"target = {target!r}: expected 3 finite numbers")
     if radius is None:
-        tx = math.tan(math.radians(fov) / 2.0)
-        half = min(math.atan(tx), math.atan(tx * size[1] / size[0]))
         R += float(np.linalg.norm(tgt - centre))  # a target off-centre: still see everything
-        radius = R / math.sin(half) if R > 0 else 1.0
+        radius = fit_distance(R, fov, size)
     elif (
         isinstance(radius, bool)
         or not isinstance(radius, numbers.Real)
@@ -350,7 +339,7 @@ class BestView:
     def view(self, i: int) -> BestView:
         """The ``i``-th evaluated viewpoint as a camera (same search record, another pose)."""
         o = self.viewpoints[i]
-        _, _, up = idbuffer.view_frame(o, self.target, self.world_up)
+        _, _, up = view_frame(o, self.target, self.world_up)
         return replace(self, origin=o.copy(), up=up, quality=float(self.qualities[i]))
 
     @property
@@ -531,7 +520,7 @@ def search(
     best = int(np.argmax(qs))
     final = max(tris, key=score)  # first on ties
     origins = view.origins(np.asarray(dirs))
-    _, _, up = idbuffer.view_frame(origins[best], view.target, view.up)
+    _, _, up = view_frame(origins[best], view.target, view.up)
     return BestView(
         origin=origins[best],
         target=view.target.copy(),
@@ -548,17 +537,6 @@ def search(
         triangle=np.asarray([dirs[i] for i in final]),
         world_up=np.asarray(view.up, np.float64),
     )
-
-
-def fibonacci_sphere(n: int) -> np.ndarray:
-    """``n`` nearly evenly spread unit vectors (a Fibonacci lattice), float64 (n, 3)."""
-    if n < 1:
-        raise ParameterError(f"samples = {n!r}: must be a positive integer")
-    i = np.arange(n) + 0.5
-    z = 1.0 - 2.0 * i / n
-    phi = i * math.pi * (3.0 - math.sqrt(5.0))
-    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    return np.stack([r * np.cos(phi), z, r * np.sin(phi)], axis=-1)  # y is the pole axis
 
 
 def quality_map(

@@ -1,0 +1,179 @@
+"""Where cameras go around a scene: its bounding sphere, the orbit, the sphere of views.
+
+**Framing.** A scene is framed by the bounding sphere (centre ``c``, radius ``R``) of the objects
+that matter (:func:`bounding_sphere`: all shapes, or those given, e.g. all but a floor). A
+pinhole camera with horizontal field of view ``fov`` and an image of ``W x H`` pixels sees the
+whole sphere from the distance ``R / sin(phi / 2)`` (:func:`fit_distance`), ``phi`` the smaller
+of its horizontal and vertical fields of view, ``tan(phi_y / 2) = tan(fov / 2) H / W``.
+
+**Orbit** (:func:`orbit`). ``n`` cameras on the circle about the scene's up axis ``a``
+(:func:`~mi_npr.camera.up_axis`) through the target ``c`` (default: the bounding sphere's
+centre), starting at the scene camera's origin ``o`` and keeping its distance and height:
+camera ``i`` is at ``c + R_a(i s) (o - c)``, ``R_a`` Rodrigues' rotation about ``a``, with
+``s = degrees / n`` for a full turn (``|degrees| >= 360``: the first view is not repeated)
+and ``s = degrees / (n - 1)`` otherwise (the last view at ``degrees``). Each looks at ``c``
+with the sensor's ``fov`` (``None``: the sensor's) and up ``a`` made orthogonal to its view,
+so nothing rolls however high the orbit is; ``time`` goes evenly from 0 to 1. A scene camera
+*on* the axis (``|a x (o - c)| <= 1e-9 |o - c|``, e.g. straight above the centre) has no
+circle to go round: a :class:`~mi_npr.errors.ParameterError`, never ``n`` identical views.
+
+**Sphere of views** (:func:`sphere_directions`, :func:`on_sphere`). The Fibonacci lattice of
+``m`` points, ``z_i = 1 - (2 i + 1) / m`` along the pole and the golden angle
+``pi (3 - sqrt 5)`` between neighbours, with its pole (+y) turned onto the up axis. The upper
+half of ``n`` views is the ``n`` points of the lattice of ``2 n`` above the equator (the lattice
+is symmetric). Cameras on it look at the centre with the up of
+:func:`~mi_npr.camera.view_frame`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from typing import Any
+
+import mitsuba as mi
+import numpy as np
+
+from ..errors import ParameterError
+from ..params import MAX_VIEWS
+from ..scene import load_scene, sensor_of, shape_bbox
+from .model import Camera, nearest_axis, orthogonal_up, rotate, view_frame
+from .sensor import camera_of
+
+SceneLike = str | os.PathLike[str] | mi.Scene
+
+
+def bounding_sphere(
+    scene: mi.Scene, shapes: Sequence[mi.Shape] | None = None
+) -> tuple[np.ndarray, float, float]:
+    """``(centre, R, inner)``: the bounding sphere of ``scene``'s shapes (or of ``shapes``),
+    and the radius of a sphere of viewpoints inside their box (a quarter of its smallest
+    extent; 0 for a flat scene, which has no inside). A scene without shapes: ``(0, 0, 0)``;
+    an unbounded one: a non-finite centre or radius."""
+    if not scene.shapes():
+        return np.zeros(3), 0.0, 0.0
+    bb = scene.bbox()
+    if shapes:
+        boxes = np.stack([shape_bbox(s) for s in shapes])
+        bb = mi.ScalarBoundingBox3f(boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0))
+    bs = bb.bounding_sphere()
+    c = np.asarray(bs.center, np.float64).ravel()[:3]
+    r = float(np.asarray(bs.radius).ravel()[0])
+    extent = np.asarray(bb.max, np.float64).ravel()[:3] - np.asarray(bb.min, np.float64).ravel()[:3]
+    inner = 0.25 * float(extent.min())
+    # A quad rotated by 90 degrees is 1e-16 thick from rounding, and a camera on its plane
+    # would see it edge-on (or, on OptiX, hit it at t = 0).
+    return c, r, inner if inner > 1e-4 * r else 0.0
+
+
+def fit_distance(radius: float, fov: float, size: tuple[int, int]) -> float:
+    """The distance from which a ``fov`` degree, ``size = (W, H)`` camera sees a sphere of
+    ``radius`` whole (module docstring); 1 for a sphere of radius 0."""
+    tx = math.tan(math.radians(fov) / 2.0)
+    half = min(math.atan(tx), math.atan(tx * size[1] / size[0]))
+    return radius / math.sin(half) if radius > 0 else 1.0
+
+
+def _count(who: str, n: Any) -> int:
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_VIEWS:
+        raise ParameterError(f"{who}: n = {n!r}: must be an integer in [1, {MAX_VIEWS}]")
+    return int(n)
+
+
+def orbit(
+    scene: SceneLike,
+    n: int,
+    degrees: float = 360.0,
+    *,
+    sensor: int | mi.Sensor = 0,
+    target: Sequence[float] | None = None,
+) -> list[Camera]:
+    """``n`` cameras turning ``degrees`` about the scene's up axis through ``target`` (default:
+    the centre of the bounding sphere), from the scene's ``sensor`` (module docstring).
+
+    >>> cams = orbit("scenes_xml/scene3.xml", 12)  # doctest: +SKIP
+    """
+    n = _count("orbit", n)
+    if isinstance(degrees, bool) or not isinstance(degrees, (int, float)):
+        raise ParameterError(f"degrees = {degrees!r}: must be a number")
+    if not math.isfinite(degrees):
+        raise ParameterError(f"degrees = {degrees!r}: must be finite")
+    s = load_scene(scene)
+    start = camera_of(sensor_of(s, sensor))
+    up = nearest_axis(start.up)
+    if target is None:
+        c = bounding_sphere(s)[0]
+        c = c if np.all(np.isfinite(c)) else np.zeros(3)  # an unbounded scene: the origin
+    else:
+        c = np.asarray(target, np.float64).reshape(-1)
+        if c.shape != (3,) or not np.all(np.isfinite(c)):
+            raise ParameterError(f"target = {target!r}: expected 3 finite numbers")
+    arm = np.asarray(start.origin) - c
+    if np.linalg.norm(np.cross(arm, up)) <= 1e-9 * np.linalg.norm(arm):
+        raise ParameterError(
+            f"orbit: the scene's camera at {list(start.origin)} lies on the orbit's axis (the "
+            f"up axis {up.tolist()} through {c.tolist()}): there is no circle to orbit on"
+        )
+    step = math.radians(degrees) / (n if abs(degrees) >= 360 else max(n - 1, 1))
+    times = np.linspace(0.0, 1.0, n) if n > 1 else np.zeros(1)
+    out = []
+    for i in range(n):
+        o = c + rotate(arm, up, i * step)
+        u = orthogonal_up((c - o) / np.linalg.norm(c - o), up)
+        out.append(Camera(o, c, u, start.fov, float(times[i])))
+    return out
+
+
+def fibonacci_sphere(n: int) -> np.ndarray:
+    """``n`` nearly evenly spread unit vectors (the Fibonacci lattice of the module docstring,
+    its pole +y), float64 (n, 3).
+
+    >>> d = fibonacci_sphere(4)
+    >>> d[:, 1].tolist()
+    [0.75, 0.25, -0.25, -0.75]
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ParameterError(f"samples = {n!r}: must be a positive integer")
+    i = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * i / n
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    return np.stack([r * np.cos(phi), z, r * np.sin(phi)], axis=-1)  # y is the pole axis
+
+
+def rotation_y_to(up: Any) -> np.ndarray:
+    """The 3x3 rotation taking +y onto the direction ``up`` (the smallest; a half turn about
+    +x for -y)."""
+    y = np.array([0.0, 1.0, 0.0])
+    u = np.asarray(up, np.float64) / np.linalg.norm(up)
+    v = np.cross(y, u)
+    c = float(y @ u)
+    if np.linalg.norm(v) < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + vx + vx @ vx / (1.0 + c)
+
+
+def sphere_directions(n: int, up: Any = (0.0, 1.0, 0.0), upper: bool = True) -> np.ndarray:
+    """``n`` Fibonacci-lattice unit vectors with the pole on ``up``, only above its equator
+    with ``upper`` (module docstring), float64 (n, 3)."""
+    n = _count("sphere", n)
+    if upper:  # the lattice of 2n points is symmetric: its n points with y > 0 are a half
+        d = fibonacci_sphere(2 * n)
+        d = d[d[:, 1] > 0][:n]
+    else:
+        d = fibonacci_sphere(n)
+    return d @ rotation_y_to(up).T
+
+
+def on_sphere(
+    directions: np.ndarray, centre: Any, radius: float, up: Any, fov: float | None
+) -> list[Camera]:
+    """Cameras at ``centre + radius * directions`` (unit, (n, 3)) looking at ``centre``, up
+    from :func:`~mi_npr.camera.view_frame` with ``up`` preferred."""
+    c = np.asarray(centre, np.float64).reshape(3)
+    d = np.asarray(directions, np.float64).reshape(-1, 3)
+    origins = c + radius * (d / np.linalg.norm(d, axis=-1, keepdims=True))
+    _, _, ups = view_frame(origins, c, up)
+    return [Camera(o, c, u, fov) for o, u in zip(origins, ups, strict=True)]

@@ -1,0 +1,203 @@
+"""The one camera type of mi-npr, checked once, and the frame of a ``lookat``.
+
+A :class:`Camera` is Mitsuba's ``lookat(origin, target, up)`` with a horizontal field of view
+``fov`` in degrees (Mitsuba's ``x_fov``: ``fov_axis="x"``), the ``time`` in [0, 1] of the frame
+it belongs to (a camera path's; 0 elsewhere) and an optional ``id``, the stem of the files it is
+rendered to. ``up`` and ``fov`` may be ``None``: *the scene sensor's*, filled in when the camera
+meets a sensor (:func:`mi_npr.camera.resolve`).
+
+Frame (Mitsuba's ``look_at``): with ``f = (target - origin) / |target - origin|``,
+``left = (up x f) / |up x f|`` and ``up' = f x left``, camera space has +z along ``f``, +y along
+``up'`` and +x along ``left``. ``up`` need not be orthogonal to ``f``, only not parallel to it:
+``|f x up| > 1e-9 |f| |up|``.
+
+>>> cam = Camera((0, 1, -4), (0, 0, 0), (0, 1, 0), 40)
+>>> cam.origin, cam.fov, cam.time
+((0.0, 1.0, -4.0), 40.0, 0.0)
+>>> Camera((0, 0, 0), (0, 0, 0))
+Traceback (most recent call last):
+    ...
+mi_npr.errors.ParameterError: camera: origin and target are the same point [0.0, 0.0, 0.0]
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+
+Vec3 = tuple[float, float, float]
+
+#: A camera id is a file stem: letters, digits, ``_``, ``-`` and ``.`` (not first).
+CAMERA_ID = re.compile(r"^[A-Za-z0-9_-][A-Za-z0-9_.-]{0,99}$")
+
+
+def _vec3(where: str, name: str, value: Any) -> Vec3:
+    try:  # a string of three digits is not three numbers
+        v = [] if isinstance(value, (str, bytes)) else [float(x) for x in value]
+    except (TypeError, ValueError):
+        v = []
+    if len(v) != 3 or not all(math.isfinite(x) for x in v):
+        raise ParameterError(f"{where}: {name} = {value!r}: expected 3 finite numbers")
+    return (v[0] + 0.0, v[1] + 0.0, v[2] + 0.0)  # + 0.0: no -0.0
+
+
+def parallel(direction: Any, up: Any) -> bool:
+    """Whether ``up`` lies along ``direction`` (``|d x up| <= 1e-9 |d| |up|``): no frame."""
+    d, u = np.asarray(direction, np.float64), np.asarray(up, np.float64)
+    return bool(
+        np.linalg.norm(np.cross(d, u)) <= 1e-9 * np.linalg.norm(d) * max(np.linalg.norm(u), 1e-30)
+    )
+
+
+def check_lookat(
+    where: str, origin: Any, target: Any, up: Any, fov: Any
+) -> tuple[Vec3, Vec3, Vec3 | None, float | None]:
+    """A pinhole camera's ``lookat(origin, target, up)`` and horizontal ``fov`` (degrees),
+    checked and as floats; ``up`` and ``fov`` may be ``None`` (the sensor's). Errors are one
+    :class:`~mi_npr.errors.ParameterError` line starting with ``where``."""
+    o, t = _vec3(where, "origin", origin), _vec3(where, "target", target)
+    d = np.subtract(t, o)
+    if np.linalg.norm(d) == 0:
+        raise ParameterError(f"{where}: origin and target are the same point {list(o)}")
+    u = None if up is None else _vec3(where, "up", up)
+    if u is not None and parallel(d, u):
+        raise ParameterError(f"{where}: up = {list(u)} lies along the view direction (parallel)")
+    if fov is not None:
+        if isinstance(fov, bool) or not isinstance(fov, (int, float)) or not 0 < fov < 180:
+            raise ParameterError(f"{where}: fov = {fov!r}: must be in (0, 180) degrees")
+        fov = float(fov)
+    return o, t, u, fov
+
+
+def _check(
+    where: str, origin: Any, target: Any, up: Any, fov: Any, time: Any, id: Any
+) -> tuple[Vec3, Vec3, Vec3 | None, float | None, float, str | None]:
+    o, t, u, f = check_lookat(where, origin, target, up, fov)
+    if (
+        isinstance(time, bool)
+        or not isinstance(time, (int, float, np.integer, np.floating))
+        or not 0.0 <= time <= 1.0
+    ):
+        raise ParameterError(f"{where}: time = {time!r}: must be in [0, 1]")
+    if id is not None and (not isinstance(id, str) or not CAMERA_ID.match(id)):
+        raise ParameterError(f"{where}: id {id!r} is not a valid file stem")
+    return o, t, u, f, float(time), id
+
+
+_FIELDS = ("origin", "target", "up", "fov", "time", "id")
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera (module docstring): ``lookat(origin, target, up)``, horizontal ``fov``
+    in degrees, ``time`` in [0, 1] and an optional ``id``; ``up``/``fov`` ``None``: the
+    sensor's. Checked on construction (:func:`check_lookat`)."""
+
+    origin: Vec3
+    target: Vec3
+    up: Vec3 | None = None
+    fov: float | None = None
+    time: float = 0.0
+    id: str | None = None
+
+    def __post_init__(self) -> None:
+        values = _check("camera", self.origin, self.target, self.up, self.fov, self.time, self.id)
+        for name, value in zip(_FIELDS, values, strict=True):
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def checked(cls, where: str, **fields: Any) -> Camera:
+        """A camera from ``fields`` (the constructor's), its errors starting with ``where``."""
+        defaults = {"up": None, "fov": None, "time": 0.0, "id": None}
+        values = [fields.get(n, defaults.get(n)) for n in _FIELDS]
+        return cls(*_check(where, *values))
+
+    @property
+    def forward(self) -> np.ndarray:
+        """The unit view direction ``(target - origin) / |target - origin|``."""
+        d = np.subtract(self.target, self.origin)
+        return d / np.linalg.norm(d)
+
+    @property
+    def resolved(self) -> bool:
+        """Whether ``up`` and ``fov`` are given (nothing left to take from a sensor)."""
+        return self.up is not None and self.fov is not None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The camera file's fields (:mod:`mi_npr.camera.files`); ``id`` only when set."""
+        d: dict[str, Any] = {
+            "origin": list(self.origin),
+            "target": list(self.target),
+            "up": None if self.up is None else list(self.up),
+            "fov": self.fov,
+            "time": self.time,
+        }
+        if self.id is not None:
+            d["id"] = self.id
+        return d
+
+
+# -- frames -------------------------------------------------------------------------------
+
+
+def nearest_axis(v: Any) -> np.ndarray:
+    """The signed world axis closest to ``v``: a tilted camera's up vector (0, 0.95, 0.3) means
+    the world's +y is up.
+
+    >>> nearest_axis([0.1, -0.2, -0.9])
+    array([ 0.,  0., -1.])
+    """
+    v = np.asarray(v, np.float64).reshape(3)
+    i = int(np.argmax(np.abs(v)))
+    axis = np.zeros(3)
+    axis[i] = 1.0 if v[i] >= 0 else -1.0
+    return axis
+
+
+def view_frame(
+    origin: Any, target: Any, up: Any = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(forward, left, up)`` unit vectors of cameras at ``origin`` (..., 3) looking at ``target``.
+
+    Mitsuba's ``lookat`` convention (camera +z forward, +y up, +x left). ``up`` is the preferred
+    up direction (default +y); where the view direction is within ~8 degrees of it
+    (``|f . up| > 0.99``), the world axis least aligned with the view direction is used
+    instead, so the frame never degenerates. The returned ``up`` is orthogonal to ``forward``.
+    """
+    o = np.asarray(origin, np.float64)
+    t = np.broadcast_to(np.asarray(target, np.float64), o.shape)
+    f = t - o
+    norm = np.linalg.norm(f, axis=-1, keepdims=True)
+    if np.any(norm <= 0):
+        raise ParameterError("origin and target coincide: no view direction")
+    f = f / norm
+    u0 = np.array([0.0, 1.0, 0.0]) if up is None else np.asarray(up, np.float64)
+    u0 = np.broadcast_to(u0 / np.linalg.norm(u0), f.shape)
+    bad = np.abs((f * u0).sum(-1)) > 0.99
+    axis = np.eye(3)[np.argmin(np.abs(f), axis=-1)]
+    u = np.where(bad[..., None], axis, u0)
+    left = np.cross(u, f)
+    left /= np.linalg.norm(left, axis=-1, keepdims=True)
+    return f, left, np.cross(f, left)
+
+
+def rotate(v: Any, axis: Any, angle: float) -> np.ndarray:
+    """Rodrigues' rotation of ``v`` about the unit ``axis`` by ``angle`` radians:
+    ``v cos a + (axis x v) sin a + axis (axis . v)(1 - cos a)``."""
+    v, axis = np.asarray(v, np.float64), np.asarray(axis, np.float64)
+    c, s = math.cos(angle), math.sin(angle)
+    return v * c + np.cross(axis, v) * s + axis * np.dot(axis, v) * (1 - c)
+
+
+def orthogonal_up(forward: Any, up: Any) -> np.ndarray:
+    """``up`` made orthogonal to the unit ``forward`` and unit length (Gram-Schmidt): the image's
+    up direction of ``lookat(o, o + forward, up)``; ``up`` must not be parallel to ``forward``."""
+    f, u = np.asarray(forward, np.float64), np.asarray(up, np.float64)
+    u = u - np.dot(u, f) * f
+    return u / np.linalg.norm(u)
