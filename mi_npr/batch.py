@@ -24,21 +24,36 @@ times, then recorded as ``failed`` with a one-line error while the others go on.
 
 from __future__ import annotations
 
+import logging
 import os
+import socket
 import sys
 import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import drjit as dr
+import mitsuba as mi
 import numpy as np
+from tqdm import tqdm
 
-from .errors import NprError, ParameterError, for_terminal, one_line
+from . import io
+from ._variant import set_variant
+from .camera import camera_of, resolve, sensor_for
+from .compose import raw_beauty
+from .drawings import split_params
+from .errors import NprError, ParameterError, SceneError, check_input_file, for_terminal, one_line
+from .io import check_writable_dir
+from .io.manifest import MANIFEST, append_row, read_rows, scene_hash
 from .params import MAX_RETRIES, MAX_THREADS, MAX_WORKERS, Param, check_arg, integer_range
-from .session import RENDER_PARAMS
+from .pipeline import render_layers
+from .session import RENDER_PARAMS, SceneSession
+from .viewpoint.outputs import view_warning
+from .views import ViewSpec, cameras, parse_views
 
 
 @dataclass
@@ -91,8 +106,6 @@ def run_jobs(
     results: list[JobResult] = []
     bar: Any = None
     if progress and len(items) > 1:
-        from tqdm import tqdm
-
         bar = tqdm(total=len(items), desc=desc, unit="scene", leave=True)
     for item in items:
         if bar is not None:
@@ -208,35 +221,26 @@ _THREADS: list[int | None] = [None]
 
 
 def _worker_name() -> str:
-    try:
+    try:  # imported here, like all of Dask: slow to import, and needed only by a batch on Dask
         from distributed import get_worker
 
         return str(get_worker().address)
     except (ImportError, ValueError):
-        import socket
-
         return f"local:{socket.gethostname()}:{os.getpid()}"
 
 
 def _configure(settings: BatchSettings) -> None:
     """This process's variant and Dr.Jit thread cap (once; again only if they change)."""
-    import mitsuba as mi
-
-    from ._variant import set_variant
 
     if settings.variant and mi.variant() != settings.variant:
         set_variant(settings.variant)
     if settings.threads and _THREADS[0] != settings.threads:
-        import drjit as dr
-
         dr.set_thread_count(settings.threads)
         _THREADS[0] = settings.threads
 
 
 def _scene(settings: BatchSettings, job: Job) -> tuple[Any, dict[str, Any]]:
     """The loaded scene of ``job`` and its cameras by view id, from this worker's cache."""
-    from .session import SceneSession
-    from .views import cameras
 
     size = (
         None
@@ -279,8 +283,6 @@ def _row(settings: BatchSettings, job: Job, attempt: int, **fields: Any) -> dict
 def _view_warning(job: Job, gb: Any) -> str | None:
     """Best view's test of a view not worth looking at (mostly background, or black: an orbit
     around a room of one-sided walls sees their backs), as a one-line warning, or ``None``."""
-    from .compose import raw_beauty
-    from .viewpoint.outputs import view_warning
 
     why = view_warning(float(np.mean(gb.object_id == 0)), raw_beauty(gb))
     return None if why is None else f"{job.id}: the view is probably useless: {why}"
@@ -289,9 +291,6 @@ def _view_warning(job: Job, gb: Any) -> str | None:
 def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str, Any]:
     """Render and write one job; its manifest row (``status`` ``done`` or ``failed`` with a
     one-line ``error``). Runs on a worker; never raises for a failing job."""
-    from . import io
-    from .camera import camera_of, resolve, sensor_for
-    from .pipeline import render_layers
 
     t0 = time.perf_counter()
     row = _row(settings, job, attempt, worker=_worker_name())
@@ -344,7 +343,6 @@ def _done(row: Mapping[str, Any], job: Job, flags: Mapping[str, Any], outdir: Pa
 def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
     """The drawing parameters, each checked by the drawings that take it
     (:func:`mi_npr.drawings.split_params`), as sorted ``(name, value)`` pairs."""
-    from .drawings import split_params
 
     out: dict[str, Any] = {}
     for taken in split_params(drawings, params, "batch").values():
@@ -355,9 +353,6 @@ def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
 def plan(scenes: Sequence[str | os.PathLike[str]], views: Any) -> tuple[list[Job], Any]:
     """The jobs of ``scenes`` x ``views`` (scene by scene) and the parsed view spec; ``views``
     is a spec (text or :class:`~mi_npr.views.ViewSpec`) or a list of cameras."""
-    from .errors import SceneError, check_input_file
-    from .io.manifest import scene_hash
-    from .views import ViewSpec, parse_views
 
     if isinstance(views, ViewSpec):
         spec = views
@@ -418,10 +413,6 @@ def run(
     ...                         drawings=["lines"], width=160, height=120, spp=4)  # doctest: +SKIP
     >>> [r["status"] for r in rows]                                               # doctest: +SKIP
     """
-    import mitsuba as mi
-
-    from .io import check_writable_dir
-    from .io.manifest import MANIFEST, append_row, read_rows
 
     table = {p.name: p for p in (*RENDER_PARAMS, *CLUSTER_PARAMS)}
 
@@ -466,8 +457,6 @@ def run(
     pending = [j for j in jobs if j.id not in rows]
     bar: Any = None
     if progress and pending:
-        from tqdm import tqdm
-
         bar = tqdm(total=len(jobs), initial=len(rows), desc="batch", unit="job")
 
     def record(row: dict[str, Any]) -> None:
@@ -499,7 +488,6 @@ def run(
 def _run_here(settings: BatchSettings, jobs: Sequence[Job], retries: int, record: Callable) -> None:
     """The batch in this process, job after job (``workers=0``); a thread cap holds for the
     batch only."""
-    import drjit as dr
 
     before = dr.thread_count()
     try:
@@ -520,9 +508,7 @@ def local_cluster(workers: int, **kwargs: Any) -> Any:
     one job at a time; Dr.Jit's own threads do the parallel work). Its scheduler sends every
     task to the workers at once (``worker-saturation`` inf): a worker never waits for its next
     job, and work stealing still balances them. Close it (or use it in ``with``)."""
-    import logging
-
-    import dask
+    import dask  # imported here: see _worker_name
     from distributed import LocalCluster
 
     options = dict(threads_per_worker=1, processes=True, dashboard_address=":0")
@@ -550,9 +536,7 @@ def _run_dask(
 ) -> None:
     """The batch on Dask: one task per job, submitted scene by scene; a failed task (or one
     whose worker died) is submitted again while it has retries left."""
-    from dataclasses import replace
-
-    from distributed import Client, as_completed
+    from distributed import Client, as_completed  # imported here: see _worker_name
 
     own_cluster = own_client = None
     try:

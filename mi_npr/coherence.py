@@ -151,7 +151,7 @@ def figure(curves: Mapping[str, Mapping[str, Any]]) -> Any:
 
         if "matplotlib.pyplot" not in __import__("sys").modules:
             matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # after the backend is chosen
     except ImportError:
         return None
     fig, ax = plt.subplots(figsize=(6.4, 3.2))

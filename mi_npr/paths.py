@@ -38,11 +38,23 @@ from typing import Any
 
 import mitsuba as mi
 import numpy as np
+from PIL import Image
+from tqdm import tqdm
 
-from .camera import Camera, orbit, read_cameras, resolve, rotate, to_json
-from .errors import ParameterError
+from . import layers as L
+from .batch import run
+from .camera import Camera, orbit, read_cameras, resolve, rotate, sensor_for, to_json
+from .coherence import line_variants, popping
+from .errors import ParameterError, SceneError
+from .gbuffer import GBuffer
+from .io import read_exr, write_layered_outputs, write_text
+from .io.frames import check_format, frame_image, write_coherence, write_video
 from .params import MAX_FRAMES, Param, integer_range, real_range
+from .pipeline import render_layers
 from .scene import load_scene, sensor_of
+from .session import SceneSession
+from .viewpoint.measures import check_measure
+from .viewpoint.search import sample_sphere, viewing
 
 SceneLike = str | os.PathLike[str] | mi.Scene
 
@@ -285,8 +297,6 @@ def explore(
     Returns the cameras, or with ``result=True`` an :class:`Exploration` with the qualities of
     every frame's view (rated like the candidates).
     """
-    from .viewpoint.measures import check_measure
-    from .viewpoint.search import sample_sphere, viewing
 
     frames = check_frames(frames)
     check_measure(measure)
@@ -413,7 +423,6 @@ def path_qualities(
 ) -> np.ndarray:
     """The quality (eq. 1, 2 or 3) of every camera's view at the viewing sphere's distance
     (:func:`mi_npr.viewpoint.viewing`): for comparing paths of different radii."""
-    from .viewpoint.search import viewing
 
     s = load_scene(scene)
     view = viewing(s, res=res)
@@ -437,7 +446,6 @@ class Frames:
 
 #: Layers kept per frame for the coherence measure.
 def _kept_layers() -> tuple[str, ...]:
-    from . import layers as L
 
     return (L.Z, *L.P, L.LINES, L.CONTOUR)
 
@@ -481,16 +489,6 @@ def render_frames(
     ``manifest.jsonl``, so ``resume`` skips finished frames), read back for the coherence
     measure and the videos.
     """
-    from PIL import Image
-
-    from . import layers as L
-    from .camera import sensor_for
-    from .coherence import line_variants, popping
-    from .gbuffer import GBuffer
-    from .io import read_exr, write_layered_outputs, write_text
-    from .io.frames import check_format, frame_image, write_coherence, write_video
-    from .pipeline import render_layers
-    from .session import SceneSession
 
     cams = list(cameras)
     if not cams:
@@ -524,8 +522,6 @@ def render_frames(
     )
     bar = None
     if progress and cams_left:
-        from tqdm import tqdm
-
         bar = tqdm(total=len(cams), desc="frames", unit="frame", leave=False)
     for i, cam in enumerate(cams_left):
         assert session is not None
@@ -582,8 +578,6 @@ def _frames_as_jobs(
     """Every frame a job of :func:`mi_npr.batch.run` (the cameras, named ``frame_%04d``, given
     in memory; written flat into ``outdir``); the files written, or one
     :class:`~mi_npr.errors.SceneError` line naming the first frame that failed."""
-    from .batch import run
-    from .errors import SceneError
 
     if not isinstance(scene, (str, os.PathLike)):
         raise ParameterError("frames as batch jobs: give the scene as an XML path")
@@ -636,7 +630,6 @@ def render_path(
 ) -> Frames:
     """``mi-npr path``: load ``scene`` once (``resolution``, ``spp``, ``defines``), build its
     path (:func:`make_path`) and render it (:func:`render_frames`, ``options``)."""
-    from .session import SceneSession
 
     session = SceneSession.open(scene, spp=spp, defines=defines, resolution=resolution)
     cams = make_path(

@@ -42,6 +42,7 @@ import numpy as np
 from .camera import Camera, on_sphere, orbit, read_cameras, sphere_directions, to_json
 from .errors import ParameterError
 from .params import VIEW_PARAMS, check_arg
+from .viewpoint.search import check_shapes, search, viewing
 
 _MEASURES = ("entropy", "pb", "curvature")
 
@@ -152,7 +153,6 @@ def sphere(scene: Any, sensor: Any, n: int, upper: bool = True) -> list[Camera]:
     """``n`` cameras at Fibonacci-lattice directions on best view's viewing sphere (its centre,
     radius and up axis; only the upper half with ``upper``), looking at its centre
     (:func:`mi_npr.camera.sphere_directions`, :func:`mi_npr.camera.on_sphere`)."""
-    from .viewpoint.search import viewing
 
     view = viewing(scene, res=32, sensor=sensor, allow_below=not upper)
     d = sphere_directions(n, view.up, upper)
@@ -162,7 +162,6 @@ def sphere(scene: Any, sensor: Any, n: int, upper: bool = True) -> list[Camera]:
 def best(scene: Any, sensor: Any, k: int, measure: str = "entropy") -> list[Camera]:
     """The ``k`` best-rated viewpoints of best view's search (best first, ties in evaluation
     order)."""
-    from .viewpoint.search import check_shapes, search, viewing
 
     check_shapes(scene)
     view = viewing(scene, sensor=sensor)

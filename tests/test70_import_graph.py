@@ -182,3 +182,55 @@ def test05_no_module_imports_the_root_package(edges):
     """``import mi_npr`` runs the whole public API: inside the package it is always a cycle
     (the command line alone reads the start-up state from it)."""
     assert {m for m, t in edges.items() if "mi_npr" in t} <= {"mi_npr.cli"}
+
+
+def _unexplained_inner_imports(path: Path) -> list[int]:
+    """Lines of imports inside functions with no comment saying why: on the line itself, on the
+    line above, or above the first import of the run of import lines it belongs to."""
+    lines = path.read_text(encoding="utf-8").splitlines()
+    tree = ast.parse("\n".join(lines))
+    out = []
+    for fn in ast.walk(tree):
+        if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        for node in _imports(fn):
+            k = node.lineno - 1  # 0-based
+            explained = "#" in lines[k]
+            j = k
+            while not explained and j > 0:
+                above = lines[j - 1].strip()
+                code = above.partition("#")[0].rstrip()
+                if above.startswith(("import ", "from ")):
+                    explained = "#" in above  # a comment on the run of imports it belongs to
+                    j -= 1
+                    continue
+                # a comment line, or one on the block's opener (try:)
+                explained = above.startswith("#") or ("#" in above and code.endswith(":"))
+                break
+            if not explained:
+                out.append(node.lineno)
+    return sorted(set(out))
+
+
+def test06_the_checker_of_inner_imports(tmp_path):
+    f = tmp_path / "m.py"
+    f.write_text(
+        "def a():\n    import os\n"  # 2: unexplained
+        "def b():\n    # slow to import\n    import json\n    import re\n"
+        "def c():\n    import csv  # optional\n"
+        "def d():\n    x = 1  # a comment that is not about the import\n    import io\n"  # 11
+        "def e():\n    try:  # optional\n        import yaml\n    except ImportError:\n"
+        "        pass\n"
+    )
+    assert _unexplained_inner_imports(f) == [2, 11]
+
+
+def test07_imports_inside_functions_say_why():
+    """An import inside a function only where it keeps a start fast or a dependency optional,
+    with a comment saying so."""
+    bad = {
+        str(f.relative_to(ROOT)): lines
+        for f in modules(ROOT, PACKAGES).values()
+        if (lines := _unexplained_inner_imports(f))
+    }
+    assert not bad

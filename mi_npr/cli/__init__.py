@@ -40,6 +40,7 @@ def commands() -> dict[str, ModuleType] | None:
     unusable LLVM, and the command must report that problem in one line instead."""
     if mi_npr.LLVM is None:
         return None
+    # imported here: they import Dr.Jit (see above)
     from . import batch, best_view, contours, foliage, info, path, raytree, render
 
     modules = (render, contours, raytree, batch, best_view, path, foliage, info)

@@ -110,6 +110,7 @@ def sphere_image(
     """
     if why := plots_missing():
         raise ImportError(f"sphere_image: {why}")
+    # imported here: matplotlib is optional (the plots extra) and slow to import
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.patches import Circle
