@@ -230,13 +230,3 @@ def problem(p: Param, value: Any) -> str | None:
     except ParameterError as e:
         return str(e).split(": ", 2)[-1]
     return None
-
-
-#: The counts inside ``mi-npr batch --views SPEC`` (``orbit:N``, ``sphere:N``, ``best:K``, the
-#: cameras of a JSON file): checked like flags (:mod:`mi_npr.views`).
-VIEW_PARAMS: tuple[Param, ...] = (
-    Param("orbit", int, 8, "views on the orbit", integer_range(1, MAX_VIEWS)),
-    Param("sphere", int, 8, "views on the viewing sphere", integer_range(1, MAX_VIEWS)),
-    Param("best", int, 1, "best-rated views", integer_range(1, MAX_BEST)),
-    Param("file", int, 1, "cameras in a JSON file", integer_range(1, MAX_VIEWS)),
-)

@@ -41,8 +41,17 @@ import numpy as np
 
 from .camera import Camera, on_sphere, orbit, read_cameras, sphere_directions, to_json
 from .errors import ParameterError
-from .params import VIEW_PARAMS, check_arg
+from .params import MAX_BEST, MAX_VIEWS, Param, check_arg, integer_range
 from .viewpoint.search import check_shapes, search, viewing
+
+#: The counts inside ``mi-npr batch --views SPEC`` (``orbit:N``, ``sphere:N``, ``best:K``, the
+#: cameras of a JSON file): checked like every parameter.
+VIEW_PARAMS: tuple[Param, ...] = (
+    Param("orbit", int, 8, "views on the orbit", integer_range(1, MAX_VIEWS)),
+    Param("sphere", int, 8, "views on the viewing sphere", integer_range(1, MAX_VIEWS)),
+    Param("best", int, 1, "best-rated views", integer_range(1, MAX_BEST)),
+    Param("file", int, 1, "cameras in a JSON file", integer_range(1, MAX_VIEWS)),
+)
 
 _MEASURES = ("entropy", "pb", "curvature")
 

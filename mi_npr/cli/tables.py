@@ -11,7 +11,8 @@ import pkgutil
 from .. import plugins as plugin_pkg
 from ..drawings import DRAWINGS
 from ..kernels import LINES_PARAMS
-from ..params import VIEW_PARAMS, Param
+from ..params import Param
+from ..views import VIEW_PARAMS
 from . import commands
 
 
