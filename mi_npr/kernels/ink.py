@@ -77,7 +77,7 @@ def widen_lines(lines: Any, width: float) -> Tensor:
 
     >>> import numpy as np
     >>> p = np.zeros((1, 7), np.float32); p[0, 3] = 1
-    >>> np.asarray(widen_lines(p, 2.0)), np.asarray(widen_lines(p, 3.0)).sum()
+    >>> np.asarray(widen_lines(p, 2.0)), float(np.asarray(widen_lines(p, 3.0)).sum())
     (array([[0. , 0. , 0.5, 1. , 0.5, 0. , 0. ]], dtype=float32), 3.0)
     """
     require("width", width, line_width)
