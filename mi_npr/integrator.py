@@ -45,8 +45,8 @@ def pack(gb: GBuffer, names: Sequence[str]) -> mi.TensorXf:
 
 def _planar(planes: Sequence[Any]) -> mi.Float:
     """(H, W) float32 or uint32 tensors (or arrays) one after the other in one Dr.Jit array;
-    integer layers become float32 (exact below 2**24). Interleaving it with one gather was
-    measured faster than strided scatters or numpy's stack at 1920x1080."""
+    integer layers become float32 (exact below 2**24). One gather then interleaves it, which is
+    faster than a strided scatter per channel or numpy's stack."""
     flat = []
     for a in planes:
         if dr.is_tensor_v(a) and dr.is_jit_v(a):
@@ -99,7 +99,7 @@ def develop_into_film(film: mi.Film, gb: GBuffer, aovs: Sequence[str]) -> mi.Ten
 
 def _refuse_other_objects(plugin: str, props: mi.Properties) -> None:
     """A nested object that is not an integrator (a ``<bsdf>`` put inside the integrator by
-    mistake) is an error naming it, not silently ignored (issue 18)."""
+    mistake) is an error naming it, not silently ignored."""
     kinds = ("BSDF", "Emitter", "Shape", "Texture", "Sensor", "Medium", "Film", "Sampler")
     for key in props.keys():
         v = props.get(key)

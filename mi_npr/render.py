@@ -187,7 +187,7 @@ def render_gbuffer(
         require_jit()
         session = SceneSession(scene, sensor_of(scene, sensor), source, spp)
     sensor = session.sensor
-    passes = check_render(sensor, beauty, spp, seed)  # table checks, memory (issue 18)
+    passes = check_render(sensor, beauty, spp, seed)  # the seed's table check, then memory
     with session.step("rendering"):
         table = session.objects
         layers = gbuffer_layers(session.scene, sensor, table, shade=beauty is None)

@@ -39,7 +39,7 @@ name                   type     default   meaning
                                           and 4x its nearest; background reads 2 (see below)
 =====================  =======  ========  ======================================================
 
-Why these defaults (issue 19): a line drawing holds silhouettes, object boundaries and creases,
+Why these defaults: a line drawing holds silhouettes, object boundaries and creases,
 which is what Blender Freestyle draws (silhouette + border + crease at 134 degrees); depth alone
 misses boundaries at equal depth (touching objects, a box on the floor) and every crease (room
 corners, hole rims). With ``Z`` normalised over the frame's depth range, a depth step lights up
@@ -66,15 +66,15 @@ A G-buffer without ``object_id`` (or ``N.X N.Y N.Z``) gets no ID edges (creases)
 were asked for explicitly, which is then an error naming the missing layer: depth alone is
 enough for the defaults.
 
-Depth at any scale (issue 18, against eq. 5.1's plain normalisation): the background reads as
+Depth at any scale (a departure from eq. 5.1's plain normalisation): the background reads as
 ``D = 2``, a full step beyond every finite pixel (the thesis's OpenGL depth buffer had its far
 plane behind the scene; with the frame's own range the farthest object pixel got the background's
 1 and its outline vanished), and with ``far`` unset the far bound is at least ``4 * near``, so a
 step counts against at least the depth where it happens: a lone sphere's whole outline, and
 nothing inside it from 50 radii on, at camera distances of 2 to 500 radii and scene scales of
-1e-3 to 1e3, with ``far`` given or not (test 80).
+1e-3 to 1e3, with ``far`` given or not (``tests/test80_depth_lines_scale.py``).
 
-Foliage (issue 8, thesis section 4.3): ``leaf_edges`` outlines every leaf primitive, which depth
+Foliage (thesis section 4.3): ``leaf_edges`` outlines every leaf primitive, which depth
 contours alone miss where leaves overlap at nearly equal depth (see
 :func:`~mi_npr.kernels.leaf_edges`); ``bright_fade`` gives the thesis's "lack of detail in bright
 areas" (Fig. 4.8 b): the line strength is multiplied by ``clip(2 - Y / bright_fade, 0, 1)``, with

@@ -1,4 +1,4 @@
-"""Line width and ink density: the last two stages of the line chain (issue 19).
+"""Line width and ink density: the last two stages of the line chain.
 
 Layout: a 2-D ``(H, W)`` line image in [0, 1] in (numpy or Dr.Jit), a ``TensorXf`` of the same
 shape out (see :mod:`mi_npr.kernels.depth_lines`). Pixels outside the image count
