@@ -1,4 +1,4 @@
-"""Batch at scale (issue 15): ``mi_npr.batch.run`` on Dask against a plain in-process loop.
+"""Batch at scale: ``mi_npr.batch.run`` on Dask against a plain in-process loop.
 
 48 jobs: 2 scenes (``scene1``, ``scene2``) x ``orbit:24`` at 160 x 120, ``spp`` 16, with the
 ``lines`` drawing, every job written (EXR, PNG, lines PNG/SVG) and its manifest line appended.

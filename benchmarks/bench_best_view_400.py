@@ -19,7 +19,7 @@ Cases:
 - ``entropy_no_sphere``: the same with ``--no-sphere``;
 - ``entropy_cold``: ``entropy`` with an empty Dr.Jit kernel cache (compilation included).
 
-Goal (issue 14): <= 10 s and <= 1 GB for ``entropy`` and ``curvature``.
+Goal: <= 10 s and <= 1 GB for ``entropy`` and ``curvature``.
 
     python benchmarks/bench_best_view_400.py [--out DIR]
 

@@ -74,7 +74,7 @@ def opencv_lines(Z: np.ndarray, ids: np.ndarray, c=40.0, t=1.0, t0=0.5) -> np.nd
     above = (p > t0).astype(np.float32)
     count = cv2.boxFilter(above, -1, (3, 3), normalize=False, borderType=cv2.BORDER_CONSTANT)
     p = np.where(count >= 3, p, 0.0)
-    # Object-ID edges, 1 px (issue 19): a 4-neighbour of another id, on this pixel's side: the
+    # Object-ID edges, 1 px: a 4-neighbour of another id, on this pixel's side: the
     # near side of a step above t / c in the pre-filtered depth, else the larger id.
     step = np.float32(t / c)
     f, Dp = np.pad(ids, 1, mode="edge"), np.pad(D, 1, mode="edge")

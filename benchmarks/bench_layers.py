@@ -1,4 +1,4 @@
-"""Every drawing in one render against the plain render (issue 14): ``mi-npr render --lines
+"""Every drawing in one render against the plain render: ``mi-npr render --lines
 --contours --raytree`` on a public-style scene, 1280 x 720, 16 spp.
 
 Scene: a Cornell-box-like room of one-sided walls (``rectangle`` shapes), a tall and a short box,

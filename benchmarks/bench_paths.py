@@ -1,4 +1,4 @@
-"""Camera paths (issue 16): a 120-frame exploration of ``scene3.xml`` (entropy, the floor
+"""Camera paths: a 120-frame exploration of ``scene3.xml`` (entropy, the floor
 ignored as in best view) at 320 x 240, 16 spp,
 with lines and contours, against the same frames by Mitsuba's ``path`` integrator alone; and
 the popping of the four line variants of the thesis's claim (section 5.1) along that path.

@@ -8,7 +8,6 @@ intersphinx).
 
 from __future__ import annotations
 
-import logging
 import sys
 from pathlib import Path
 
@@ -37,7 +36,7 @@ smartquotes = False
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 # Links to headings of other pages: [text](lines.md#width-rule).
 myst_heading_anchors = 3
-exclude_patterns = ["_build", "TODO_docstring_warnings.txt"]
+exclude_patterns = ["_build"]
 templates_path: list[str] = []
 
 # The API pages document what each module exports (``__all__``) or defines; keep the source
@@ -61,52 +60,3 @@ html_sidebars = {"**": ["about.html", "navigation.html", "searchbox.html"]}
 
 # Benchmarks: where the JSON results are (bench_tables reads them at build time).
 bench_results_dir = str(DOCS.parent / "benchmarks" / "results")
-
-
-# --- TEMPORARY: known docstring warnings ------------------------------------------------------
-# The docstrings below (in mi_npr/ and plugins/, owned by others while this was written) are not
-# valid reStructuredText yet. Each entry drops exactly one warning: the object whose docstring
-# it comes from and the start of the message. Everything else still fails the -W build. The
-# list with the fixes to make is docs/TODO_docstring_warnings.txt; remove an entry here when its
-# docstring is fixed (the build says which entries matched nothing), and this whole block when
-# the list is empty.
-_TEMPORARY_DOCSTRING_WARNINGS: list[tuple[str, str]] = [
-    ("mi_npr.contours.overlay.render_contours", "Inline literal start-string without end-string"),
-    ("mi_npr.foliage.styles", "Malformed table"),
-    ("mi_npr.foliage.hlp", 'Undefined substitution referenced: "grad F"'),
-    ("mi_npr.io.exr", "Malformed table"),
-    ("mi_npr.kernels.chain", "Malformed table"),
-    ("mi_npr.integrator.NprIntegrator.render", "Inline literal start-string without end-string"),
-    ("mi_npr.plugins.npr_lines.LINE_AA_DEFAULT", 'Undefined substitution referenced: "error"'),
-    ("mi_npr.raytree.render.render", "Inline literal start-string without end-string"),
-]
-_matched: set[tuple[str, str]] = set()
-
-
-class _KnownDocstringWarnings(logging.Filter):
-    """Drops the warnings listed in :data:`_TEMPORARY_DOCSTRING_WARNINGS` (temporary)."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        where = str(getattr(record, "location", "") or "")
-        text = str(record.msg)
-        for obj, start in _TEMPORARY_DOCSTRING_WARNINGS:
-            if f"docstring of {obj}:" in where and text.startswith(start):
-                _matched.add((obj, start))
-                return False
-        return True
-
-
-def _report_unmatched(app: object, exception: Exception | None) -> None:
-    for obj, start in _TEMPORARY_DOCSTRING_WARNINGS:
-        if exception is None and (obj, start) not in _matched:
-            logging.getLogger("sphinx.mi_npr_docs").info(
-                "conf.py: the known warning %r of %s no longer occurs: remove its entry", start, obj
-            )
-
-
-def setup(app: object) -> None:
-    # Sphinx's warning handler counts (and with -W raises) in its own filters: run first.
-    for handler in logging.getLogger("sphinx").handlers:
-        if handler.level == logging.WARNING:
-            handler.filters.insert(0, _KnownDocstringWarnings())
-    app.connect("build-finished", _report_unmatched)  # type: ignore[attr-defined]

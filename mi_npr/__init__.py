@@ -4,9 +4,12 @@
 imports Mitsuba, activates a variant if none is active (``$MI_NPR_VARIANT`` or ``llvm_ad_rgb``)
 and registers mi-npr's plugins (``npr_gbuffer``, ...) for it and for every later variant.
 
->>> import mi_npr                                                     # doctest: +SKIP
->>> gb = mi_npr.render("scenes_xml/scene1.xml", width=64, height=48)   # doctest: +SKIP
->>> mi_npr.io.write_exr("out/scene1.exr", gb)                          # doctest: +SKIP
+>>> import mi_npr, tempfile
+>>> gb = mi_npr.render("scenes_xml/scene1.xml", width=64, height=48, spp=1)
+>>> gb.shape, gb.objects[1]
+((48, 64), 'back_wall')
+>>> mi_npr.io.write_exr(tempfile.mkdtemp() + "/scene1.exr", gb).name
+'scene1.exr'
 """
 
 from __future__ import annotations

@@ -162,7 +162,7 @@ def inspect(path: str, source: str) -> Candidate:
 def wheel_libraries() -> list[str]:
     """libLLVM files installed by the ``karellen-llvm-core`` wheel (newest first)."""
     # Where the wheel puts it in a virtual environment or a plain install: a glob, so the common
-    # case does not pay for importlib.metadata (~25 ms); the wheel's file list when that finds no
+    # case does not pay for importing importlib.metadata; the wheel's file list when that finds no
     # recent enough library (--user, --target installs).
     found = glob.glob(os.path.join(sys.prefix, "lib", "libLLVM*.so*"))
     if not any((version_from_name(p) or 0) >= MIN_VERSION for p in found):

@@ -1,4 +1,4 @@
-"""Anti-aliased lines (issue 19): the line chain on a supersampled G-buffer, box-filtered to the
+"""Anti-aliased lines: the line chain on a supersampled G-buffer, box-filtered to the
 film's resolution.
 
 The G-buffer of :mod:`mi_npr.render` has one exact ray per pixel centre, so every line is a row

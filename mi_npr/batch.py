@@ -409,9 +409,12 @@ def run(
     to; else a ``LocalCluster`` of ``workers`` processes (default: one per core, at most one per
     job) started and closed here; ``workers=0`` renders in this process, without Dask.
 
-    >>> rows = mi_npr.batch.run(["scenes_xml/scene1.xml"], "orbit:4", out="out",
-    ...                         drawings=["lines"], width=160, height=120, spp=4)  # doctest: +SKIP
-    >>> [r["status"] for r in rows]                                               # doctest: +SKIP
+    >>> import tempfile
+    >>> rows = mi_npr.batch.run(["scenes_xml/scene1.xml"], "orbit:2", out=tempfile.mkdtemp(),
+    ...                         drawings=["lines"], width=32, height=24, spp=1, workers=0,
+    ...                         progress=False)
+    >>> [(r["view"], r["status"]) for r in rows]
+    [('orbit_000', 'done'), ('orbit_001', 'done')]
     """
 
     table = {p.name: p for p in (*RENDER_PARAMS, *CLUSTER_PARAMS)}

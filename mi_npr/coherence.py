@@ -91,7 +91,7 @@ def reproject(
 
 def _maximum_filter(a: np.ndarray, radius: int) -> np.ndarray:
     """The maximum over a (2 radius + 1)^2 window, the border repeated."""
-    from scipy.ndimage import maximum_filter  # lazy: scipy.ndimage costs ~0.1 s to import
+    from scipy.ndimage import maximum_filter  # lazy: keeps scipy's import out of start-up
 
     return maximum_filter(a, size=2 * radius + 1, mode="nearest")
 

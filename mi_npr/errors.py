@@ -77,7 +77,7 @@ def for_terminal(text: object) -> str:
     """``text`` with control characters escaped (``\\x1b``, ``\\n``, ``\\u202e``...), for
     everything that reaches a terminal: names from scenes and files (object ids, layer names,
     metadata, paths) could otherwise set the terminal's title and colours or split a listing.
-    The one helper for it (issue 18)."""
+    The one helper for it."""
     s = str(text)
     if s.isprintable():
         return s

@@ -48,8 +48,8 @@ def pack(gb: GBuffer, names: Sequence[str]) -> mi.TensorXf:
 
 def _planar(planes: Sequence[Any]) -> mi.Float:
     """(H, W) float32 or uint32 tensors (or arrays) one after the other in one Dr.Jit array;
-    integer layers become float32 (exact below 2**24). Interleaving it with one gather was
-    measured faster than strided scatters or numpy's stack at 1920x1080."""
+    integer layers become float32 (exact below 2**24). One gather then interleaves it, which is
+    faster than a strided scatter per channel or numpy's stack."""
     flat = []
     for a in planes:
         if dr.is_tensor_v(a) and dr.is_jit_v(a):
@@ -195,6 +195,11 @@ class NprIntegrator(mi.SamplingIntegrator):
         develop: bool = True,
         evaluate: bool = True,
     ) -> mi.TensorXf:
+        """The whole image as ``mi.render`` returns it, (H, W, 3 + len(aov_names())): the exact
+        pixel-centre G-buffer pass, the nested integrator's beauty (its film filter, ``spp``
+        samples, ``seed``), this integrator's drawing, packed and put into the sensor's film
+        (module docstring). ``seed`` and ``spp`` may be one-element Dr.Jit arrays, as
+        ``mi.render(scene, params=...)`` passes them."""
         if not develop:
             raise ParameterError(f"{self.PLUGIN}: develop=False is not supported")
         sensor = sensor_of(scene, sensor)

@@ -60,7 +60,7 @@ RAYTREE_LO = "raytree_lo.V"
 #: Cryptomatte 1.2 (mi_npr.cryptomatte): ``CryptoObject00.R`` ... as the specification names them.
 CRYPTO_OBJECT = "CryptoObject"
 CRYPTO_MATERIAL = "CryptoMaterial"
-#: Foliage (issue 8): which leaf primitive a pixel sees.
+#: Foliage: which leaf primitive a pixel sees.
 LEAF_ID = "leaf_id.V"
 
 #: The G-buffer channels, in the order they follow the beauty channels in ``mi.render``'s output.

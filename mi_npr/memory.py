@@ -1,6 +1,6 @@
 """Memory: estimate what a render needs before it starts, against what the process may use.
 
-A film too large for memory used to kill the process (SIGSEGV inside Dr.Jit or numpy). Now
+A film too large for memory would kill the process (SIGSEGV inside Dr.Jit or numpy), so
 :func:`check_render` runs first (one call at the start of every render) and raises
 :class:`~mi_npr.errors.MemoryLimitError`, naming the size needed and the figure it exceeds.
 

@@ -200,15 +200,6 @@ def check_values(plugin: str, params: Sequence[Param], values: dict[str, Any]) -
     return {p.name: coerce(plugin, p, values.get(p.name, p.default)) for p in params}
 
 
-def table(params: Sequence[Param]) -> str:
-    """The parameter table of a plugin's manual (reStructuredText, like Mitsuba's docs)."""
-    rows = [
-        (p.name, "rgb" if p.type is tuple else p.type.__name__, repr(p.default), p.doc)
-        for p in params
-    ]
-    return "\n".join(f"  {a:<22} {b:<7} {c:<10} {d}" for a, b, c, d in rows)
-
-
 def entry(table: Sequence[Param], name: str) -> Param:
     """The parameter ``name`` of ``table``."""
     for p in table:

@@ -277,7 +277,3 @@ def object_table(scene: mi.Scene) -> ObjectTable:
     lut[reg] = ids
     materials, mat_lut = _materials(table, by_shape)
     return ObjectTable(table, by_shape, mi.UInt32(lut), materials, mat_lut.astype(np.int64))
-
-
-def describe_objects(table: Mapping[int, str]) -> str:
-    return ", ".join(f"{k}={v}" for k, v in table.items())

@@ -1,4 +1,4 @@
-"""Small scenes written like public Mitsuba scenes (issue 14): their own <default> names, a
+"""Small scenes written like public Mitsuba scenes: their own <default> names, a
 ``path`` integrator with its parameters, one-sided walls, unnamed PLY meshes."""
 
 from __future__ import annotations

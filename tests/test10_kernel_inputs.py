@@ -34,8 +34,8 @@ def test01_public_api():
     """The names the issue gives, exactly."""
     assert mi_npr.kernels is K
     functions = "normalize_depth depth_contours remove_isolated selective_dilation id_edges "
-    functions += "normal_edges lines leaf_edges"  # leaf_edges: issue 8 (foliage)
-    functions += " crease_edges widen_lines ink_density"  # issue 19 (line drawings)
+    functions += "normal_edges lines leaf_edges"  # leaf_edges: foliage
+    functions += " crease_edges widen_lines ink_density"  # line drawings
     assert set(K.__all__) == {"LINES_PARAMS", *functions.split()}
     params = "c t t0 dilation_size dilation_iterations remove_isolated id_edges crease_angle"
     params += " leaf_edges max_density line_width bright_fade"  # issues 8 (foliage), 19

@@ -23,7 +23,7 @@ def ref_selective_dilation(D, n=3, iterations=1, top=1.0):
     of the n*n - 1 neighbours with R > m; R <- max_S R where Na > (n*n - 1) / 2. Returns 1 - R.
 
     In exact rational arithmetic on the float32 depths (``R_i > m`` is ``d_i < mean(d)``), so
-    ties are ties (issue 18). ``top``: NaN reads as it and depth is clamped to [0, top].
+    ties are ties. ``top``: NaN reads as it and depth is clamped to [0, top].
     """
     d = np.vectorize(lambda v: clean_depth(v, top))(np.asarray(D, dtype=np.float64))
     d = d.astype(np.float32)
@@ -113,7 +113,7 @@ def test07_nan_and_inf_never_spread():
 
 
 def test08_exact_ties_are_not_float32_rounding():
-    """Issue 18: seven neighbours at x, one at x - 1/8, the centre at x + 1/8. The mean is x
+    """Seven neighbours at x, one at x - 1/8, the centre at x + 1/8. The mean is x
     exactly, so only one neighbour is nearer than the mean and the centre keeps its depth; a
     float32 mean (rounded below x in R) counted all seven as above and dilated the pixel."""
     x = np.float32(0.7276081442832947)

@@ -22,7 +22,7 @@ DEFAULTS = {p.name: p.default for p in K.LINES_PARAMS}
 
 
 def ref_chain_depth(Z, near=None, far=None):
-    """The chain's depth (issue 18): test 11's normalisation, except that with ``far`` unset
+    """The chain's depth: test 11's normalisation, except that with ``far`` unset
     the far bound is at least ``4 * near`` (a step counts against at least the depth where it
     happens) and the background reads 2, a full step from every finite pixel."""
     Z = np.asarray(Z, dtype=np.float64)
@@ -98,7 +98,7 @@ def blocks(shape):
 
 
 CASES = [
-    {},  # issue 19: ID edges and creases at 134 degrees by default
+    {},  # ID edges and creases at 134 degrees by default
     {"dilation_iterations": 0, "remove_isolated": False},
     {"c": 5.0, "t": 0.5, "t0": 0.2, "dilation_size": 5, "dilation_iterations": 2},
     {"id_edges": False, "crease_angle": 0.0},

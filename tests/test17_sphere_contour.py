@@ -57,7 +57,7 @@ def test02_frame_range_loses_the_farthest_rim(write_scene):
     frame = np.asarray(K.depth_contours(K.normalize_depth(gb.numpy("Z")), C, T))
     fixed = np.asarray(K.depth_contours(K.normalize_depth(gb.numpy("Z"), far=20.0), C, T))
     assert frame[farthest] == 0.0 and fixed[farthest] == 1.0
-    assert np.asarray(K.lines(gb))[farthest] == 1.0  # the chain's background is beyond (issue 18)
+    assert np.asarray(K.lines(gb))[farthest] == 1.0  # the chain's background is beyond
 
 
 def test03_lines_of_a_box_in_front_of_a_wall(write_scene):
@@ -72,7 +72,7 @@ def test03_lines_of_a_box_in_front_of_a_wall(write_scene):
     rim8, rim4 = _boundaries(inside)
     assert not (ink & ~rim8).any()
     assert ink[rim4].mean() > 0.9  # eq. 5.2 may shorten the ends of lines, nothing else
-    drawn = np.asarray(K.lines(gb)) > 0  # the defaults (issue 19): + boundaries + creases
+    drawn = np.asarray(K.lines(gb)) > 0  # the defaults: + boundaries + creases
     assert not (drawn & ~inside).any()  # still nothing on the wall
     crease = drawn & ~rim8
     assert crease.any()  # the box's vertical crease shows now, 1 px wide

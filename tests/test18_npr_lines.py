@@ -44,7 +44,7 @@ def test02_mi_render_returns_composited_beauty_lines_then_gbuffer(write_scene):
     for i, name in enumerate(names):
         np.testing.assert_array_equal(a[..., i], gb.numpy(name).astype(np.float32), err_msg=name)
     ink = gb.numpy(L.LINES)
-    # Anti-aliased by default (issue 19): gray levels, within a pixel of the ball's outline.
+    # Anti-aliased by default: gray levels, within a pixel of the ball's outline.
     ball = gb.object_id == 1
     near_ball = ball | np.roll(ball, 1, 0) | np.roll(ball, -1, 0)
     near_ball |= np.roll(near_ball, 1, 1) | np.roll(near_ball, -1, 1)
@@ -97,12 +97,12 @@ def test04_defaults_are_the_chains_defaults():
     integ = mi.load_dict({"type": "npr_lines"})
     chain = [p.name for p in K.LINES_PARAMS]  # ... line_width, bright_fade, near, far
     own = ["line_color", "line_aa"]
-    sel = ["id_mode", "only", "ignore"]  # issue 14: object selection
+    sel = ["id_mode", "only", "ignore"]  # object selection
     assert [p.name for p in integ.PARAMS] == [*chain[:-2], *own, *chain[-2:], *sel]
     defaults = {p.name: p.default for p in K.LINES_PARAMS}
     own = ["line_color", "line_aa", "cryptomatte"]  # the plugin's own and every integrator's
     assert {k: v for k, v in integ.params.items() if k not in own + sel} == defaults
-    assert integ.params["line_aa"] == 3  # issue 19: chosen by measurement
+    assert integ.params["line_aa"] == 3  # chosen by measurement
     assert integ.params["line_color"] == (0.0, 0.0, 0.0)
 
 

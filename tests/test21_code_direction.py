@@ -67,7 +67,7 @@ def test02_equals_reference_on_random_maps(seed):
         for b, c in zip(border, walks, strict=True):
             chain, closed = reference_walk(ids, tuple(b.points[0].tolist()))
             assert c.points.tolist() == [list(p) for p in chain]
-            whole = set(map(tuple, b.points.tolist())) <= set(chain)  # issue 18
+            whole = set(map(tuple, b.points.tolist())) <= set(chain)
             assert c.closed == (closed and whole) and c.object_id == b.object_id
             assert mask[c.ys, c.xs].all()  # it never takes a pixel that is not a contour pixel
             if len(c) > 1:
@@ -111,7 +111,7 @@ def test05_single_pixel_and_two_pixels_are_closed():
 
 
 def test08_stopping_next_to_the_start_is_not_closing():
-    """Issue 18: a walk that dead-ends next to its departure pixel after skipping part of its
+    """A walk that dead-ends next to its departure pixel after skipping part of its
     piece is open; closed walks hold every pixel of the piece's border."""
     rng = np.random.default_rng(1818)
     found = 0

@@ -34,7 +34,7 @@ def test01_mi_render_channels(write_scene):
     ref = np.zeros(gb.shape, np.uint32)
     for c in trace(gb):
         ref[c.ys, c.xs] = c.object_id
-    # Issue 14: the layer keeps the traced pixels on the side that owns each edge (1 px between
+    # the layer keeps the traced pixels on the side that owns each edge (1 px between
     # touching objects; tests/test66 checks the exact rule against a brute-force reference).
     on = gb.numpy(L.CONTOUR) != 0
     assert on.sum() > 0.6 * (ref != 0).sum()
@@ -85,4 +85,4 @@ def test05_scene_default_switches_integrator():
     scene = mi_npr.load_scene(path, width=48, height=36, spp=1)
     ids, _ = mode_ids(gb, scene, "shape")
     mask, on = mi_npr.contours.contour_mask(ids), gb.numpy(L.CONTOUR) != 0
-    assert np.all(mask[on]) and on.sum() > 0  # one side of each edge, not the frame (issue 14)
+    assert np.all(mask[on]) and on.sum() > 0  # one side of each edge, not the frame

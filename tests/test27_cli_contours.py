@@ -89,7 +89,7 @@ def test04_errors(balls, tmp_path):
 
 
 def test05_cli_flags_are_the_plugins_parameters():
-    """Issue 14: the flags are generated from npr_contours' PARAMS (same names)."""
+    """The flags are generated from npr_contours' PARAMS (same names)."""
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if a.dest == "command").choices["contours"]
     flags = {o for a in sub._actions for o in a.option_strings}

@@ -54,7 +54,7 @@ def test03_scene3_gap_and_hidden_objects():
 
 
 def test04_scene4_intersections_are_contours():
-    """Where objects interpenetrate, the crease is a contour, drawn on one side (issue 14)."""
+    """Where objects interpenetrate, the crease is a contour, drawn on one side."""
     gb = mi_npr.render(SCENES / "scene4.xml", **SMALL)
     out, contours = overlay(gb)
     ids, layer = gb.object_id, out.numpy("contour.V")

@@ -59,7 +59,7 @@ def test02_style_scene_renders_leaf_outlines(name, tmp_path):
         Y = gb.stack(L.RAW_RGB) @ np.array([0.2126, 0.7152, 0.0722])
         fade = np.clip(2 - Y / S.style(name).lines["bright_fade"], 0, 1)
     # Every boundary between two leaves (or a leaf and anything else) carries a line pixel;
-    # anti-aliased (issue 19), it is inked at least by half where the line crosses it.
+    # anti-aliased, it is inked at least by half where the line crosses it.
     for a, b, ia, ib, min_fade in (
         (leaf[:, 1:], leaf[:, :-1], ink[:, 1:], ink[:, :-1], np.minimum(fade[:, 1:], fade[:, :-1])),
         (leaf[1:], leaf[:-1], ink[1:], ink[:-1], np.minimum(fade[1:], fade[:-1])),

@@ -1,4 +1,4 @@
-"""Issue 14: --width/--height/--spp on any scene, `render --lines --contours --raytree` (one EXR
+"""--width/--height/--spp on any scene, `render --lines --contours --raytree` (one EXR
 with every layer, the scene's own integrator as the beauty), no command overwriting another's
 files, flags generated from the plugins' parameters, progress and per-scene lines."""
 

@@ -1,4 +1,4 @@
-"""Issue 14: --only/--ignore and the material/silhouette id modes, pixel-exact in the `contour`
+"""--only/--ignore and the material/silhouette id modes, pixel-exact in the `contour`
 and `edges.*` layers; file-stem names of unnamed meshes; 1-px contours between objects."""
 
 from __future__ import annotations

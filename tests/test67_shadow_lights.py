@@ -1,4 +1,4 @@
-"""Issue 14: ray-tree shadow edges from hard-shadow lights only unless asked (--shadow-lights,
+"""Ray-tree shadow edges from hard-shadow lights only unless asked (--shadow-lights,
 the npr_raytree shadow_lights parameter)."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """On AD variants the G-buffer pass, the line kernels and compositing keep Dr.Jit's gradient
-graph (issue 13): d(sum of the lines layer) / d(scene parameter) from ``dr.backward`` agrees with
+graph: d(sum of the lines layer) / d(scene parameter) from ``dr.backward`` agrees with
 central finite differences where the gray levels are not saturated.
 
 The scene: a small tilted rectangle in front of a large tilted wall, seen by a perspective camera,

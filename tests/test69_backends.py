@@ -1,4 +1,4 @@
-"""The kernels run on the backend their inputs live on (issue 13): a G-buffer rendered on a
+"""The kernels run on the backend their inputs live on: a G-buffer rendered on a
 GPU stays there. On LLVM this checks the rule with LLVM tensors of both flavours and mixed
 inputs; the CUDA half runs where a CUDA device is present (the suite's GPU run) and compares
 every kernel's CUDA result with its LLVM result bit for bit."""

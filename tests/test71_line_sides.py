@@ -1,4 +1,4 @@
-"""Issue 19: every kind of line 1 px wide, one side of every edge (ID edges, creases, depth
+"""Every kind of line 1 px wide, one side of every edge (ID edges, creases, depth
 steps), crease angles in degrees against analytic dihedral angles, and brute-force references
 of the 1-px ID and crease edges."""
 

@@ -1,4 +1,4 @@
-"""Issue 19: line_width in pixels for every kind of line, and max_density (thin creases, then
+"""Line_width in pixels for every kind of line, and max_density (thin creases, then
 boundaries, where ink is dense), against numpy references."""
 
 from __future__ import annotations

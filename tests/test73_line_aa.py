@@ -1,4 +1,4 @@
-"""Issue 19: anti-aliased lines from a supersampled G-buffer equal the box-filtered lines of the
+"""Anti-aliased lines from a supersampled G-buffer equal the box-filtered lines of the
 same camera rendered on a film N times larger."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 19: mi-npr render writes <stem>_lines.png (ink on paper) beside the beauty with lines;
+"""Mi-npr render writes <stem>_lines.png (ink on paper) beside the beauty with lines;
 --line-width, --line-aa, --line-color and --paper reach the drawing."""
 
 from __future__ import annotations

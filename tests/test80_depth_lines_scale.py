@@ -1,4 +1,4 @@
-"""Issue 18: the lines chain draws a lone sphere's whole silhouette at camera distances from 2
+"""The lines chain draws a lone sphere's whole silhouette at camera distances from 2
 to 500 radii and scene scales from 1e-3 to 1e3, with ``far`` given or not; and nothing off the
 sphere's outline at the distances where its own relief is small."""
 

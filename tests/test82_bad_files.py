@@ -1,4 +1,4 @@
-"""Issue 18: corrupt, truncated, empty and non-EXR files get one line "PATH: not a valid EXR
+"""Corrupt, truncated, empty and non-EXR files get one line "PATH: not a valid EXR
 (truncated?)" with the OpenEXR library's own messages silenced; directories and devices given as
 inputs are named as such, not "no such file"."""
 

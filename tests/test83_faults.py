@@ -1,4 +1,4 @@
-"""Issue 18: faults leave no debris. SIGTERM is handled like SIGINT (exit 143, temporary files
+"""Faults leave no debris. SIGTERM is handled like SIGINT (exit 143, temporary files
 removed, no partial output set); after a SIGKILL, the next run that writes to the same folder
 removes the dead run's temporary files; an output set is replaced all together or not at all."""
 

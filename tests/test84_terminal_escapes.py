@@ -1,4 +1,4 @@
-"""Issue 18: control characters in names (object ids, metadata, paths) are escaped wherever they
+"""Control characters in names (object ids, metadata, paths) are escaped wherever they
 reach a terminal: an escape sequence in a shape id must not set the terminal's title or colours,
 and a newline must not split the listing."""
 

@@ -1,4 +1,4 @@
-"""Issue 18: a render's memory is estimated before it starts (mi_npr.memory); over the bound a
+"""A render's memory is estimated before it starts (mi_npr.memory); over the bound a
 clear one-line error names the size and the figure, never a signal death; ``--max-memory``
 changes the bound; a beauty whose samples alone cross it is rendered in passes."""
 

@@ -1,4 +1,4 @@
-"""Issue 18: property-based tests (hypothesis) for the kernels, the tracer and the writers on
+"""Property-based tests (hypothesis) for the kernels, the tracer and the writers on
 random shapes, sizes, dtypes and non-finite values, against the brute-force references of the
 earlier tests. Small ``max_examples`` keep them fast."""
 
@@ -119,7 +119,7 @@ def test06_tracer(ids):
     walks = trace(ids, method="code_direction")
     assert len(walks) == len(border)
     for b, w in zip(border, walks, strict=True):
-        if w.closed:  # issue 18: closed means the whole piece
+        if w.closed:  # closed means the whole piece
             assert set(map(tuple, b.points.tolist())) <= set(map(tuple, w.points.tolist()))
 
 

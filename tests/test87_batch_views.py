@@ -1,4 +1,4 @@
-"""Issue 15: the viewpoints of ``mi-npr batch --views`` (:mod:`mi_npr.views`): parsing with
+"""The viewpoints of ``mi-npr batch --views`` (:mod:`mi_npr.views`): parsing with
 one-line errors, the orbit and the sphere against closed forms written here, the best views in
 best view's order, and a camera turned into a sensor that renders what the scene's own sensor
 renders."""

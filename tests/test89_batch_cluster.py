@@ -1,4 +1,4 @@
-"""Issue 15: ``mi-npr batch`` on a real Dask cluster: a ``dask scheduler`` and ``dask worker``
+"""``mi-npr batch`` on a real Dask cluster: a ``dask scheduler`` and ``dask worker``
 processes on 127.0.0.1 started here (random free ports, stopped by their PIDs). Both workers
 render; a worker SIGKILLed mid-batch loses no job; a client SIGKILLed mid-batch and re-run with
 ``--resume`` redoes nothing finished and misses nothing; a job rendered on the cluster has the

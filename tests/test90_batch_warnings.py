@@ -1,4 +1,4 @@
-"""A batch view that is not worth looking at says so (issue 15 with issue 14's best-view test):
+"""A batch view that is not worth looking at says so:
 an orbit around a room of one-sided walls sees their backs, black; the manifest row carries a
 one-line warning and the command prints it, while views inside the room carry none."""
 

@@ -1,4 +1,4 @@
-"""Issue 16: camera paths as data (orbit, through, explore) and their JSON format."""
+"""Camera paths as data (orbit, through, explore) and their JSON format."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 16: the popping measure (reprojection through P and the cameras, occlusion by depth)."""
+"""The popping measure (reprojection through P and the cameras, occlusion by depth)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 16: ``mi-npr path``: frames, drawings, path.json, coherence.json and videos."""
+"""``mi-npr path``: frames, drawings, path.json, coherence.json and videos."""
 
 from __future__ import annotations
 

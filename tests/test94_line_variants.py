@@ -1,4 +1,4 @@
-"""Issue 16: the four line variants of the thesis's claim, and popping of real rendered frames."""
+"""The four line variants of the thesis's claim, and popping of real rendered frames."""
 
 from __future__ import annotations
 

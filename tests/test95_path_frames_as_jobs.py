@@ -1,4 +1,4 @@
-"""Issue 16 on issue 15's engine: the frames of a camera path as batch jobs (``render_frames(...,
+"""the frames of a camera path as batch jobs (``render_frames(...,
 cluster=...)``, ``mi-npr path --workers N``) are the frames the in-process loop writes, and a
 resumed path redoes no finished frame."""
 

@@ -92,7 +92,9 @@ def orbit(
     """``n`` cameras turning ``degrees`` about the scene's up axis through ``target`` (default:
     the centre of the bounding sphere), from the scene's ``sensor`` (module docstring).
 
-    >>> cams = orbit("scenes_xml/scene3.xml", 12)  # doctest: +SKIP
+    >>> cams = orbit("scenes_xml/scene3.xml", 12)
+    >>> len(cams), cams[0].fov == cams[6].fov, round(cams[3].time, 4)
+    (12, True, 0.2727)
     """
     n = _count("orbit", n)
     if isinstance(degrees, bool) or not isinstance(degrees, (int, float)):

@@ -142,7 +142,7 @@ class IdMap:
         """(N, 2, 3) world bounding box of each shape, in object id order (ids 1..N)."""
         boxes = []
         for sid in range(1, len(self.table) + 1):
-            bb = self.table.shapes[sid].bbox()  # as shape_bbox, ~10x faster per shape
+            bb = self.table.shapes[sid].bbox()  # as shape_bbox, without its numpy round trip
             boxes.append((*bb.min, *bb.max))
         return np.asarray(boxes, np.float64).reshape(-1, 2, 3)
 

@@ -53,7 +53,7 @@ def mode_ids(
 
 def owned(ids: np.ndarray, depth: np.ndarray) -> np.ndarray:
     """Pixels of an object (id != 0) that own an edge with a 4-neighbour of another id, by
-    the side rule of issue 19 (:mod:`mi_npr.kernels.edges`): the nearer pixel where the depth,
+    the side rule of :mod:`mi_npr.kernels.edges`: the nearer pixel where the depth,
     normalised over the frame's finite range, steps by more than :data:`CONTACT_STEP`, else
     the larger id. So the contour between two touching objects is 1 px, and an object's
     contour against the background (or an object far behind) lies on the object."""

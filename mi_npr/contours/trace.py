@@ -39,7 +39,7 @@ neighbours ``i - 1`` and ``i + 1`` (mod 8) have the object's id (both lie in the
 ring and are 4-neighbours of candidate ``i``); the departure pixel is coloured from the start, and
 the walk stops when no neighbour qualifies; it is *closed* when it stopped next to its departure
 pixel (or is a single pixel) *and* holds every pixel of its piece's border (the border follower's
-cycle), else *open* (issue 18: stopping next to the start after skipping pixels is not closing).
+cycle), else *open* (stopping next to the start after skipping pixels is not closing).
 Colouring is per contour, so contours do not depend on the order they are traced in. Each contour
 piece gets its own departure pixel (the first pixel of its border-follower contour) instead of one
 per object. Where it goes wrong, by construction:
@@ -53,9 +53,9 @@ per object. Where it goes wrong, by construction:
   its union can miss contour pixels and two contours may share pixels (outer border and hole of a
   1-pixel-thick ring);
 - since colouring is per contour, a hole's walk may wander on along the object's other border
-  pixels, so on inputs with very many holes its cost grows much faster than the image: a
-  640x480 one-pixel checkerboard (153,600 holes) takes about 50 s, against 1.5 s for the
-  border follower. On rendered scenes both take milliseconds.
+  pixels, so on inputs with very many holes its cost grows much faster than the image and far
+  beyond the border follower's (a one-pixel checkerboard is the worst case); rendered scenes
+  have few holes.
 
 The tests show each case; the border follower has none of them.
 """
@@ -140,8 +140,8 @@ class Grid:
 
 
 def distinct(a: np.ndarray) -> np.ndarray:
-    """The sorted distinct values of an integer array (``np.unique`` is ~30x slower on the
-    sizes used here with numpy 2.x's hash-based implementation)."""
+    """The sorted distinct values of an integer array (by sorting: ``np.unique``'s hash-based
+    implementation in numpy 2.x is slower on the sizes used here)."""
     s = np.sort(np.asarray(a).reshape(-1))
     if len(s) < 2:
         return s
@@ -275,7 +275,7 @@ def crack_cycles(grid: Grid, cracks: tuple[np.ndarray, np.ndarray] | None = None
         return CrackCycles(z, z, np.zeros(1, np.int64), z, z, z.astype(bool))
     keys = pix * 4 + side  # sorted
     # Successor keys -> crack indices through a table over all keys (only the cracks' entries
-    # are written and read: np.empty touches no other page), ~20x faster than searchsorted.
+    # are written and read: np.empty touches no other page), faster than searchsorted.
     slot = np.empty(len(grid.ids) * 4, np.int64)
     slot[keys] = np.arange(n)
     succ = slot[_successor(grid, pix, side)]
@@ -508,7 +508,7 @@ def contours_from_grid(
 def _holds_piece(grid: Grid, chain: list[int], piece: np.ndarray) -> bool:
     """Whether a walk's chain holds every pixel of its piece's border (the border follower's
     cycle ``piece``, (x, y) points): a walk that stopped next to its start but skipped part of
-    the piece is not closed (issue 18)."""
+    the piece is not closed."""
     return bool(np.isin(grid.index(piece[:, 0], piece[:, 1]), np.asarray(chain)).all())
 
 

@@ -17,7 +17,7 @@ the field is a sum of Gaussian blobs (Blinn's "blobby" model):
 and the surface is the iso-surface ``F(p) = T`` with ``T = exp(-1/2)`` (:data:`ISO`): a lone blob
 of weight 1 has exactly its ellipsoid (``q = 1``) as surface, and nearby blobs melt into one smooth
 surface. ``F`` grows towards the centres, so the *outward* normal is the normalised negative
-gradient, in closed form:
+gradient, in closed form::
 
     grad F(p) = -sum_i w_i exp(-q_i(p) / 2) M_i (p - c_i),    n_hlp(p) = -grad F / |grad F|.
 
@@ -37,9 +37,9 @@ Overlapping Gaussian blobs inflate the union (where ``n`` equal blobs overlap, t
 ``q = 1 + 2 ln n``), so finally all radii are scaled by one common factor, found by bisection, such
 that the fraction ``inside`` (default 0.9) of the leaf centres lies inside the surface: the surface
 is the crown's envelope. Ambiguity resolved: the thesis builds HLPs by hand or from the plant's
-structure; the issue asks for clustering, and k-means on leaf positions is the simplest
-deterministic choice. Empty clusters are dropped, so ``len(hlps)`` can be below ``k`` when leaves
-coincide.
+structure; here they come from clustering the leaves, and k-means on leaf positions is the
+simplest deterministic choice. Empty clusters are dropped, so ``len(hlps)`` can be below ``k``
+when leaves coincide.
 
 **Data.** An :class:`HLPSet` is plain numpy data: inspect it, edit it (``dataclasses.replace``),
 save/load it as JSON (:meth:`HLPSet.save`, :meth:`HLPSet.load`)::
@@ -415,7 +415,7 @@ def kmeans(
     """k-means with k-means++ seeding (scipy's ``kmeans2``): ``(centres (k', 3), labels (n,))``,
     each point labelled with its nearest centre; empty clusters are dropped, so ``k' <= k``
     (``k`` is also capped at the number of distinct points). Deterministic for a given ``seed``."""
-    from scipy.cluster.vq import kmeans2, vq  # lazy: scipy costs ~0.1 s to import
+    from scipy.cluster.vq import kmeans2, vq  # lazy: keeps scipy's import out of start-up
 
     X = np.asarray(X, np.float64)
     k = max(1, min(int(k), len(np.unique(X, axis=0))))

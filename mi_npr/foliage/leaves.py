@@ -31,7 +31,7 @@ where ``A`` is the plant's total leaf area (placement ``"leaves"``) or the area 
   ``d`` by up to ``tilt`` / 2 degrees (which keeps it perpendicular to ``d``); the leaf faces
   ``d`` tilted about its own axis by up to ``tilt`` degrees. Ambiguity resolved: the thesis only
   says "re-oriented around their HLP"; strokes circling the centre like latitude lines give the
-  swirling look of Van Gogh's foliage and satisfy the issue's perpendicularity rule exactly;
+  swirling look of Van Gogh's foliage and keep the long axis exactly perpendicular to ``d``;
 - ``"random"`` -- uniformly random.
 
 Every leaf is then turned so its front faces the outside of the HLP surface (``n . n_hlp >= 0``).

@@ -19,9 +19,10 @@ Per leaf, from a mesh component: ``area`` = sum of its triangle areas; ``center`
 centroid; ``normal`` = the normalised area-weighted sum of its triangle normals (the mean plane of
 a folded leaf); ``axis`` = the principal direction of its vertices projected into that plane;
 ``size`` = the extent of its vertices along ``axis`` (the leaf's length). Components whose area is
-zero are dropped (they have no normal). Ambiguity resolved: the issue does not say what a leaf's
-"size" is; mi-npr uses the *length* along the long axis everywhere (``leaf_size`` of the leaf
-primitives means the same), and ``area`` separately, so covered area can be kept constant.
+zero are dropped (they have no normal). Ambiguity resolved: a leaf's "size" could be its length,
+its width or its area; mi-npr uses the *length* along the long axis everywhere (``leaf_size`` of
+the leaf primitives means the same), and ``area`` separately, so covered area can be kept
+constant.
 
 Validation: non-finite coordinates are an :class:`~mi_npr.errors.InputError` naming the file and
 how many values are bad; a plant with no leaves is valid and empty (``len(plant) == 0``); the

@@ -1,17 +1,17 @@
 """The thesis's four foliage drawing styles (Fig. 4.8), as presets and as ready scenes.
 
-=================  ==========================================================================
-style              what it does
-=================  ==========================================================================
-``small_leaves``   (a) small leaf primitives at the plant's own leaves, an outline on every
-                   leaf, little abstraction: many small silhouettes, lighting detail
-``large_leaves``   (b) large abstract leaves on the HLP surface, strong abstraction, and lines
-                   that fade out in bright areas (``bright_fade``): no detail where it is lit
-``van_gogh``       (c) elliptical leaves turned around their HLP centres (orientation
-                   ``van_gogh``), 1 px outlines on the nearer leaf
-``childrens_book`` (d) flat colours (``bands``: the shading quantized into flat tones) on a
-                   smooth blobby crown (full abstraction), bold 2 px outlines
-=================  ==========================================================================
+===================  ==========================================================================
+style                what it does
+===================  ==========================================================================
+``small_leaves``     (a) small leaf primitives at the plant's own leaves, an outline on every
+                     leaf, little abstraction: many small silhouettes, lighting detail
+``large_leaves``     (b) large abstract leaves on the HLP surface, strong abstraction, and lines
+                     that fade out in bright areas (``bright_fade``): no detail where it is lit
+``van_gogh``         (c) elliptical leaves turned around their HLP centres (orientation
+                     ``van_gogh``), 1 px outlines on the nearer leaf
+``childrens_book``   (d) flat colours (``bands``: the shading quantized into flat tones) on a
+                     smooth blobby crown (full abstraction), bold 2 px outlines
+===================  ==========================================================================
 
 A :class:`Style` holds the choices: leaf shape, placement, orientation, leaf size (relative to the
 plant's bounding-box diagonal, so a style suits a plant of any scale), abstraction, coverage, tilt,

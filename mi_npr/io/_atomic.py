@@ -1,7 +1,7 @@
 """Atomic writes: every output goes to a temporary name in the target directory and is renamed
 into place only once complete, so a crash or a bad input never leaves a half-written file.
 
-Issue 18: temporary names carry the writing process's PID (``.NAME.PID.XXXXXXXX.tmp``); they are
+Temporary names carry the writing process's PID (``.NAME.PID.XXXXXXXX.tmp``); they are
 removed on every exit path (exceptions, ``atexit``, SIGTERM through the CLI), and those of a run
 that was killed outright (SIGKILL) are swept by the next run that writes to the same directory.
 :func:`output_set` replaces a set of outputs (EXR, PNGs, SVG, XML) all together or not at all.

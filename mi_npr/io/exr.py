@@ -8,24 +8,27 @@ OpenImageIO-based tools read the id itself, not a [0, 1]-normalised ``UINT``; a 
 :class:`~mi_npr.errors.OutputError`); ``UINT`` only for the ray-tree hash halves. Header
 attributes:
 
-=====================  ==========================================================================
-``worldToCamera``      the OpenEXR standard attribute (Imath ``M44f``, row vectors: ``p * M``):
-                       world -> camera space with +x right, +y up, +z the view direction
-                       (RenderMan's; Mitsuba's own camera space has +x *left*, so x is mirrored)
-``worldToNDC``         the standard attribute (``M44f``, row vectors, then divide by w; perspective
-                       cameras only): world -> NDC, (0, 0) the image's top-left corner, (1, 1) its
-                       bottom-right, so pixel ``(x, y) = (W * ndc.x, H * ndc.y)``; z = 0 on the near
-                       and 1 on the far clip plane
-``mi_npr/version``     the mi-npr version that wrote the file
-``mi_npr/objects``     JSON object table ``{"1": "floor", "2": "sphere", ...}`` (0 = background)
-``mi_npr/camera``      JSON camera: ``to_world`` (Mitsuba convention), resolution, fov, clip planes
-``mi_npr/layers``      JSON list of layer names in the GBuffer's order (EXR sorts channels)
+=========================  ======================================================================
+``worldToCamera``          the OpenEXR standard attribute (Imath ``M44f``, row vectors: ``p * M``):
+                           world -> camera space with +x right, +y up, +z the view direction
+                           (RenderMan's; Mitsuba's own camera space has +x *left*, so x is
+                           mirrored)
+``worldToNDC``             the standard attribute (``M44f``, row vectors, then divide by w;
+                           perspective cameras only): world -> NDC, (0, 0) the image's top-left
+                           corner, (1, 1) its bottom-right, so pixel ``(x, y) = (W * ndc.x, H *
+                           ndc.y)``; z = 0 on the near and 1 on the far clip plane
+``mi_npr/version``         the mi-npr version that wrote the file
+``mi_npr/objects``         JSON object table ``{"1": "floor", "2": "sphere", ...}`` (0 =
+                           background)
+``mi_npr/camera``          JSON camera: ``to_world`` (Mitsuba convention), resolution, fov, clip
+                           planes
+``mi_npr/layers``          JSON list of layer names in the GBuffer's order (EXR sorts channels)
 ``mi_npr/integer_layers``  JSON list of the uint32 layers stored as whole-number ``FLOAT``
-``mi_npr/...``         every other metadata string of the GBuffer (scene, spp, variant, ...);
-                       a key of the user's without the ``mi_npr/`` prefix goes in as
-                       ``mi_npr/meta/<key>`` and comes back as ``<key>``
-``cryptomatte/...``    Cryptomatte metadata, when the GBuffer has Cryptomatte layers
-=====================  ==========================================================================
+``mi_npr/...``             every other metadata string of the GBuffer (scene, spp, variant, ...);
+                           a key of the user's without the ``mi_npr/`` prefix goes in as
+                           ``mi_npr/meta/<key>`` and comes back as ``<key>``
+``cryptomatte/...``        Cryptomatte metadata, when the GBuffer has Cryptomatte layers
+=========================  ======================================================================
 
 Writes are atomic (temporary file + rename). ``read_exr(write_exr(gb))`` equals ``gb``, layers
 bit for bit, except that the file always records the writer's ``mi_npr/version``. Files written

@@ -36,7 +36,7 @@ def to_rgb8(image: np.ndarray, linear: bool = True) -> np.ndarray:
     a = np.asarray(image)
     if a.dtype == np.uint8:
         return a
-    # NaN is black, +inf white, -inf black (issue 18: a NaN cast to uint8 is undefined).
+    # NaN is black, +inf white, -inf black (a NaN cast to uint8 is undefined).
     clean = np.nan_to_num(a.astype(np.float32), nan=0.0, posinf=1.0, neginf=0.0)
     if linear:
         a = linear_to_srgb(clean)

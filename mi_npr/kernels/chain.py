@@ -12,34 +12,34 @@ kernel, eq. 5.1 is one, and eq. 5.2 with the edges is the last one.
 
 Parameters (:data:`LINES_PARAMS`, shared with the ``npr_lines`` plugin):
 
-=====================  =======  ========  ======================================================
-name                   type     default   meaning
-=====================  =======  ========  ======================================================
-``c``                  float    40        eq. 5.1 gain on the normalised depth difference (>= 0)
-``t``                  float    1         eq. 5.1 threshold (>= 0): a step lights up above
-                                          ``t / c`` and is black from ``(1 + t) / c``
-``t0``                 float    0.5       eq. 5.2 threshold in [0, 1]
-``dilation_size``      int      3         selective-dilation window, odd, 3..15
-``dilation_iterations`` int     1         selective-dilation passes, 0..64 (0 = none)
-``remove_isolated``    bool     true      apply eq. 5.2
-``id_edges``           bool     true      object boundaries (ID edges), 1 px
-``crease_angle``       float    134       creases: 4-neighbours on one object whose dihedral
-                                          angle is below this, in degrees (Freestyle's crease
-                                          angle; 0 = off), 1 px
-``leaf_edges``         int      0         add the outline of every leaf from the ``leaf_id``
-                                          layer: 0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px
-``max_density``        float    1         thin lines where the ink of a 9x9 region exceeds this
-                                          share: creases go first, then ID/leaf edges; depth
-                                          contours stay (1 = off)
-``line_width``         float    1         width of every line in pixels, (0, 15]
-``bright_fade``        float    0         fade lines out where the beauty's luminance exceeds
-                                          this: full below it, none from twice it; 0 = off
-``near``, ``far``      float    unset     depth range mapped to [0, 1]; unset = the frame's
-                                          nearest finite ``Z`` and the larger of its farthest
-                                          and 4x its nearest; background reads 2 (see below)
-=====================  =======  ========  ======================================================
+=========================  =======  ========  ======================================================
+name                       type     default   meaning
+=========================  =======  ========  ======================================================
+``c``                      float    40        eq. 5.1 gain on the normalised depth difference (>= 0)
+``t``                      float    1         eq. 5.1 threshold (>= 0): a step lights up above
+                                              ``t / c`` and is black from ``(1 + t) / c``
+``t0``                     float    0.5       eq. 5.2 threshold in [0, 1]
+``dilation_size``          int      3         selective-dilation window, odd, 3..15
+``dilation_iterations``    int      1         selective-dilation passes, 0..64 (0 = none)
+``remove_isolated``        bool     true      apply eq. 5.2
+``id_edges``               bool     true      object boundaries (ID edges), 1 px
+``crease_angle``           float    134       creases: 4-neighbours on one object whose dihedral
+                                              angle is below this, in degrees (Freestyle's crease
+                                              angle; 0 = off), 1 px
+``leaf_edges``             int      0         add the outline of every leaf from the ``leaf_id``
+                                              layer: 0 = off, 1 = 1 px on the nearer leaf, 2 = 2 px
+``max_density``            float    1         thin lines where the ink of a 9x9 region exceeds this
+                                              share: creases go first, then ID/leaf edges; depth
+                                              contours stay (1 = off)
+``line_width``             float    1         width of every line in pixels, (0, 15]
+``bright_fade``            float    0         fade lines out where the beauty's luminance exceeds
+                                              this: full below it, none from twice it; 0 = off
+``near``, ``far``          float    unset     depth range mapped to [0, 1]; unset = the frame's
+                                              nearest finite ``Z`` and the larger of its farthest
+                                              and 4x its nearest; background reads 2 (see below)
+=========================  =======  ========  ======================================================
 
-Why these defaults (issue 19): a line drawing holds silhouettes, object boundaries and creases,
+Why these defaults: a line drawing holds silhouettes, object boundaries and creases,
 which is what Blender Freestyle draws (silhouette + border + crease at 134 degrees); depth alone
 misses boundaries at equal depth (touching objects, a box on the floor) and every crease (room
 corners, hole rims). With ``Z`` normalised over the frame's depth range, a depth step lights up
@@ -66,15 +66,15 @@ A G-buffer without ``object_id`` (or ``N.X N.Y N.Z``) gets no ID edges (creases)
 were asked for explicitly, which is then an error naming the missing layer: depth alone is
 enough for the defaults.
 
-Depth at any scale (issue 18, against eq. 5.1's plain normalisation): the background reads as
+Depth at any scale (a departure from eq. 5.1's plain normalisation): the background reads as
 ``D = 2``, a full step beyond every finite pixel (the thesis's OpenGL depth buffer had its far
 plane behind the scene; with the frame's own range the farthest object pixel got the background's
 1 and its outline vanished), and with ``far`` unset the far bound is at least ``4 * near``, so a
 step counts against at least the depth where it happens: a lone sphere's whole outline, and
 nothing inside it from 50 radii on, at camera distances of 2 to 500 radii and scene scales of
-1e-3 to 1e3, with ``far`` given or not (test 80).
+1e-3 to 1e3, with ``far`` given or not (``tests/test80_depth_lines_scale.py``).
 
-Foliage (issue 8, thesis section 4.3): ``leaf_edges`` outlines every leaf primitive, which depth
+Foliage (thesis section 4.3): ``leaf_edges`` outlines every leaf primitive, which depth
 contours alone miss where leaves overlap at nearly equal depth (see
 :func:`~mi_npr.kernels.leaf_edges`); ``bright_fade`` gives the thesis's "lack of detail in bright
 areas" (Fig. 4.8 b): the line strength is multiplied by ``clip(2 - Y / bright_fade, 0, 1)``, with
@@ -151,10 +151,10 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> Tensor:
     ``params`` are those of :data:`LINES_PARAMS`; unknown names and bad values raise
     :class:`~mi_npr.errors.ParameterError` naming the parameter.
 
-    >>> gb = mi_npr.render("scenes_xml/scene2.xml", width=160, height=120)  # doctest: +SKIP
-    >>> ink = mi_npr.kernels.lines(gb, t=0.5, crease_angle=0)                # doctest: +SKIP
-    >>> np.asarray(ink).shape                                                # doctest: +SKIP
-    (120, 160)
+    >>> gb = mi_npr.render("scenes_xml/scene2.xml", width=64, height=48, spp=1)
+    >>> ink = mi_npr.kernels.lines(gb, t=0.5, crease_angle=0)
+    >>> np.asarray(ink).shape
+    (48, 64)
     """
     if not isinstance(gbuffer, Mapping) and not hasattr(gbuffer, "names"):
         raise ParameterError(

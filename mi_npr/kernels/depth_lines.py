@@ -25,7 +25,7 @@ array([[0, 0, 0, 0, 0, 0],
        [0, 1, 1, 1, 0, 0],
        [0, 0, 0, 0, 0, 0]])
 
-Ambiguities of the thesis and how they are resolved here (issue 4):
+Ambiguities of the thesis and how they are resolved here:
 
 - *Depth* ``D`` is normalised to [0, 1], 0 nearest, 1 farthest, linearly between the nearest and
   the farthest finite ``Z`` of the frame, or between user-given ``near`` and ``far``; background
@@ -33,7 +33,7 @@ Ambiguities of the thesis and how they are resolved here (issue 4):
   everything, so there the background is always farther than any object; with the frame's own
   range the farthest object pixel also gets 1, and its contour against the background vanishes.
   Give ``far`` (beyond the scene) where that matters. The :func:`~mi_npr.kernels.lines` chain
-  (and ``npr_lines``) departs from this plain eq. 5.1 input in two ways (issue 18), so that a
+  (and ``npr_lines``) departs from this plain eq. 5.1 input in two ways, so that a
   lone sphere's whole silhouette is drawn at camera distances of 2 to 500 radii and scene scales
   of 1e-3 to 1e3, with ``far`` given or not: the background reads as ``D = 2`` (infinitely far:
   a full step from every finite pixel, whatever ``far`` is), and with ``far`` unset the span is at

@@ -5,7 +5,7 @@ misleading" there; for the man-made scenes of the paper they add what depth cann
 boundaries between touching or intersecting objects at the same depth (ID edges) and creases
 inside one object, such as a cube's edges (normal edges).
 
-Definitions (issue 4), both over the 4-neighbourhood (up, left, right, down), where pixels outside
+Definitions, both over the 4-neighbourhood (up, left, right, down), where pixels outside
 the image repeat the border pixel, so the image border itself is never an edge:
 
 - *ID edge*: a pixel whose ``object_id`` differs from some 4-neighbour's. The test is symmetric,
@@ -15,19 +15,19 @@ the image repeat the border pixel, so the image border itself is never an edge:
   ``angle_deg`` with the normal of some 4-neighbour on the *same* object (also 2 px thick).
   Normals need not be unit length; a zero, NaN or inf normal never makes an edge.
 
-- *Leaf edge* (issue 8): a pixel whose ``leaf_id`` differs from some 4-neighbour's, where at
+- *Leaf edge*: a pixel whose ``leaf_id`` differs from some 4-neighbour's, where at
   least one of the two is a leaf (id != 0). Leaves overlap at nearly equal depth, so depth
   contours miss part of their outlines; the per-leaf id finds all of them. ``width=2`` marks both
   sides (2 px, like ID edges); ``width=1`` marks only the *nearer* pixel of each pair (smaller
   ``Z``; on equal depth the larger id), so every outline is 1 px thick and belongs to the leaf in
   front, as eq. 5.1 puts depth lines on the near side. NaN depth reads as +inf (background).
 
-- *Crease edge* (issue 19): a pixel of an object whose normal makes a *dihedral angle* smaller
+- *Crease edge*: a pixel of an object whose normal makes a *dihedral angle* smaller
   than ``crease_angle`` degrees with the normal of a 4-neighbour on the same object, the
   dihedral angle being ``180 - angle(n0, n1)`` (two coplanar faces: 180, a cube's edge: 90), as
   Blender Freestyle's crease angle (default 134) defines it. Always 1 px thick.
 
-**Which side is drawn** (1-px ID and crease edges, issue 19). Every edge separates a pair of
+**Which side is drawn** (1-px ID and crease edges). Every edge separates a pair of
 4-neighbours ``p, q``; exactly one of them is inked, by one rule shared by all kinds:
 
 1. a *depth step*: where ``q`` is farther than ``p`` by more than ``step`` (in the units of the

@@ -1,4 +1,4 @@
-"""Line width and ink density: the last two stages of the line chain (issue 19).
+"""Line width and ink density: the last two stages of the line chain.
 
 Layout: a 2-D ``(H, W)`` line image in [0, 1] in (numpy or Dr.Jit), a ``TensorXf`` of the same
 shape out (see :mod:`mi_npr.kernels.depth_lines`). Pixels outside the image count
@@ -77,7 +77,7 @@ def widen_lines(lines: Any, width: float) -> Tensor:
 
     >>> import numpy as np
     >>> p = np.zeros((1, 7), np.float32); p[0, 3] = 1
-    >>> np.asarray(widen_lines(p, 2.0)), np.asarray(widen_lines(p, 3.0)).sum()
+    >>> np.asarray(widen_lines(p, 2.0)), float(np.asarray(widen_lines(p, 3.0)).sum())
     (array([[0. , 0. , 0.5, 1. , 0.5, 0. , 0. ]], dtype=float32), 3.0)
     """
     require("width", width, line_width)

@@ -4,7 +4,7 @@ small holes (1-pixel "holes" that eq. 5.2 cannot remove) without growing objects
 Layout: a 2-D ``(H, W)`` image in, a ``TensorXf`` of the same shape and backend out (see
 :mod:`mi_npr.kernels.depth_lines`).
 
-Ambiguities resolved (issue 4): the thesis works on reversed depth ``R = 1 - D`` (0 = far
+Ambiguities resolved: the thesis works on reversed depth ``R = 1 - D`` (0 = far
 background) and defines
 
 - eq. 5.3, the dilation ``DD = max_S R`` over the n x n window ``S`` (odd ``n``, centre included);
@@ -14,7 +14,7 @@ background) and defines
 
 pixels outside the image repeat the border pixel; ``iterations`` applies the filter that many
 times (0 returns the input); the result is given back as depth (``1 - SD``). ``R_i > m`` is
-decided exactly, as ``n * n * d_i < sum_S d`` in float64 (issue 18: a float32 mean broke exact
+decided exactly, as ``n * n * d_i < sum_S d`` in float64 (a float32 mean would break exact
 ties by rounding). Depth is read with the same policy as eq. 5.1:
 NaN is background (1) and values are clamped to [0, 1], so the result is finite.
 """

@@ -6,8 +6,8 @@ unnamed emitter is named ``<type>_<hash of its parameters>``. Names are sorted a
 like object ids, so reordering the XML does not renumber the lights. Light ``k`` is bit ``k - 1``
 of the light mask of a tree node and is written ``Lk`` in a signature.
 
-Visibility (one shadow ray per emitter, no sampling: the issue's rule). A light is *visible* from
-a hit point when
+Visibility (one shadow ray per emitter, no sampling, so a tree is deterministic). A light is
+*visible* from a hit point when
 
 - the point is on the side of the surface the tree's ray came from, as seen along the shadow
   ray's direction (a light behind the surface is not visible, whatever the occluders), and

@@ -26,7 +26,7 @@ from .edges import any_corner, as_image, classify_edges
 from .lights import HARD, light_table
 from .tracer import Trees, check_max_depth, trace_trees
 
-#: Overlay colours (linear RGB) of the edge classes, as the issue asks.
+#: Overlay colours (linear RGB) of the edge classes.
 COLORS: dict[str, tuple[float, float, float]] = {
     L.EDGES_REAL: (1.0, 0.0, 0.0),
     L.EDGES_REFLECTION: (0.0, 0.0, 1.0),

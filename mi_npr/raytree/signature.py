@@ -121,10 +121,11 @@ def signature(
     :mod:`mi_npr.raytree.lights`) default to the scene's ``npr_raytree`` integrator's, else 3
     and ``"hard"``, as in the ray-tree layers.
 
-    >>> mi_npr.raytree.signature("scenes_xml/scene1.xml", 350, 260)  # doctest: +SKIP
-    '2BL1L2DL1'
+    >>> mi_npr.raytree.signature("scenes_xml/scene1.xml", 350, 260)
+    '2BL1DL1'
 
-    (object D, lit by light 1, whose mirror reflection hits B, lit by lights 1 and 2).
+    (the middle sphere D, lit by light 1, whose mirror reflection hits the floor B, lit by
+    light 1).
     """
     session = SceneSession.open(scene, sensor=sensor)
     w, h = film_size(session.sensor)
