@@ -94,8 +94,13 @@ def load_scene(
 
 def declared_defaults(path: str | os.PathLike[str]) -> set[str]:
     """Names of the ``<default>`` parameters an XML scene declares (its includes too)."""
+    return set(default_values(path))
 
-    names: set[str] = set()
+
+def default_values(path: str | os.PathLike[str]) -> dict[str, str]:
+    """The ``<default>`` parameters an XML scene declares (its includes too), name -> the value
+    written in the file (the first declaration of a name wins, as in Mitsuba)."""
+    names: dict[str, str] = {}
     todo, seen = [os.path.abspath(path)], set()
     while todo:
         p = todo.pop()
@@ -108,7 +113,7 @@ def declared_defaults(path: str | os.PathLike[str]) -> set[str]:
             continue  # Mitsuba's loader reports malformed XML with a better message
         for el in root.iter("default"):
             if el.get("name"):
-                names.add(el.get("name", ""))
+                names.setdefault(el.get("name", ""), el.get("value", ""))
         for el in root.iter("include"):
             if el.get("filename"):
                 todo.append(os.path.join(os.path.dirname(p), el.get("filename", "")))

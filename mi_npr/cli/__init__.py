@@ -138,6 +138,8 @@ def _run(
             args.scenes = [resolve(s) for s in args.scenes]
         if args.command in ("best-view", "path"):
             args.scene = resolve(args.scene)
+        if args.command == "info":  # a bundled scene's name too
+            args.file = resolve(args.file)
         return commands()[args.command].run(args)  # type: ignore[index]
     except KeyboardInterrupt:
         _remove_temps()
