@@ -204,3 +204,18 @@ def test07_the_same_choices_as_xml_parameters(tmp_path):
         gb.find_object("floor"),
     }
     np.testing.assert_array_equal(gb.beauty, flags.pictures["contours"])
+
+
+def test08_a_glob_that_matches_nothing_says_what_would():
+    """Globs are case-sensitive like the XML's ids: a glob that matches only in another case
+    says so, any other names the closest objects (not the first ones alphabetically)."""
+    from mi_npr.contours.idmode import selected
+
+    names = {1: "Apple", 2: "Brick_01", 3: "Plate_A", 4: "Plate_B", 5: "floor"}
+    assert selected(names, ["Plate_*"]) == {3, 4}
+    with pytest.raises(ParameterError, match="in another case it matches Plate_A, Plate_B"):
+        selected(names, ["plate*"])
+    with pytest.raises(ParameterError, match=r"ignore 'Flor': .*closest of the 5 objects: floor,"):
+        selected(names, ignore=["Flor"])
+    with pytest.raises(ParameterError, match="the scene has no objects"):
+        selected({}, ["x"])

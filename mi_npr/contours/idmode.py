@@ -15,7 +15,8 @@ table's *shape* names, whatever the mode): a shape is drawn when it matches one 
 ``only`` is empty) and none of ``ignore``. The others count as background (id 0) in every
 mode, in the ``contour`` layer, the ``edges.*`` layers and the lines' ID edges alike, so a drawn
 object has a contour where it meets an ignored one. A glob that matches no shape is an error
-naming it (a typo would otherwise silently draw everything or nothing).
+naming it (a typo would otherwise silently draw everything or nothing) and the names it matches
+in another case, or else the closest names.
 
 Ids and names, stable like the object table's (:mod:`mi_npr.scene`): shapes are taken in object
 table order and numbered 1..M in that order. A shape that is not split (not a mesh, an instance,
@@ -35,6 +36,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from difflib import SequenceMatcher
 from fnmatch import fnmatchcase
 from typing import Any
 
@@ -69,6 +71,21 @@ def split_globs(value: str | Sequence[str] | None) -> tuple[str, ...]:
     return tuple(g.strip() for g in items if g.strip())
 
 
+def _hint(glob: str, names: Mapping[int, str]) -> str:
+    """What to say about a glob that matches no name: the names it matches in another case
+    (globs are case-sensitive, like the XML's ids), else the closest names."""
+    values = list(names.values())
+    if not values:
+        return "the scene has no objects"
+    folded = [n for n in values if fnmatchcase(n.lower(), glob.lower())]
+    if folded:
+        some = ", ".join(folded[:5]) + (", ..." if len(folded) > 5 else "")
+        return f"globs are case-sensitive: in another case it matches {some}"
+    key = glob.replace("*", "").replace("?", "").lower()
+    closest = sorted(values, key=lambda n: -SequenceMatcher(None, key, n.lower()).ratio())[:5]
+    return f"closest of the {len(values)} objects: {', '.join(closest)}"
+
+
 def selected(
     names: Mapping[int, str], only: Sequence[str] = (), ignore: Sequence[str] = ()
 ) -> set[int]:
@@ -77,8 +94,7 @@ def selected(
     for flag, globs in (("only", only), ("ignore", ignore)):
         for g in globs:
             if not any(fnmatchcase(n, g) for n in names.values()):
-                some = ", ".join(list(names.values())[:8]) + (", ..." if len(names) > 8 else "")
-                raise ParameterError(f"{flag} {g!r}: no object matches (objects: {some or 'none'})")
+                raise ParameterError(f"{flag} {g!r}: no object matches ({_hint(g, names)})")
     return {
         k
         for k, n in names.items()
