@@ -89,6 +89,11 @@ def load_scene(
         msg = one_line(e)
         if path not in msg:
             msg = f"{path}: {msg}"
+        if "polarized" in msg.lower() and "polarized" not in str(mi.variant()):
+            msg += (
+                f" (the variant is {mi.variant()}: render it in a polarized one such as "
+                "llvm_ad_spectral_polarized, with --variant or mi_npr.set_variant)"
+            )
         raise SceneError(msg) from None
 
 

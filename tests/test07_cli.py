@@ -216,3 +216,26 @@ def test12_numpy_values_and_a_defines_mapping_fill_defaults():
     assert gb.shape == (6, 8)
     with pytest.raises(mi_npr.ParameterError, match="defines: expected a mapping"):
         mi_npr.render(SCENES / "scene2.xml", defines=["width=8"])
+
+
+def test13_variant_errors_speak_the_command_line(ball, tmp_path, capsys):
+    """A scene that needs a polarized variant says so and names one; a scalar variant is refused
+    in the command line's words, before anything loads."""
+    out = tmp_path / "o"
+    pol = tmp_path / "pol.xml"
+    pol.write_text(
+        scene_xml('<shape type="sphere"><point name="center" x="0" y="0" z="3"/></shape>').replace(
+            '<integrator type="npr_gbuffer"/>', '<integrator type="stokes"/>'
+        )
+    )
+    assert cli.main(["render", str(pol), "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "polarized mode" in err and "such as llvm_ad_spectral_polarized, with --variant" in err
+    assert "\n" not in err
+    assert cli.main(["--variant", "scalar_rgb", "render", str(ball), "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        "mi-npr: error: --variant scalar_rgb: mi-npr runs on Mitsuba's JIT variants only "
+        "(llvm_*, cuda_*): use --variant llvm_ad_rgb"
+    )
+    assert not (out / "ball.exr").exists()

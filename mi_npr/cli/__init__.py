@@ -131,6 +131,20 @@ def _run(
             parser.parse_args(argv)  # a usage error naming the unknown arguments (exit 2)
         if args.variant:
             mi_npr.set_variant(args.variant)
+        variant = str(mi_npr.mi.variant())
+        reads_exr = args.command == "info" and not args.file.lower().endswith(".xml")
+        if not variant.startswith(("llvm_", "cuda_")) and not reads_exr:
+            given = (
+                "--variant"
+                if args.variant
+                else "MI_NPR_VARIANT"
+                if os.environ.get("MI_NPR_VARIANT")
+                else "the active variant"
+            )
+            return _fail(
+                f"{given} {variant}: mi-npr runs on Mitsuba's JIT variants only "
+                "(llvm_*, cuda_*): use --variant llvm_ad_rgb"
+            )
         if getattr(args, "max_memory", None):
             set_max_memory(args.max_memory)
             os.environ[ENV] = args.max_memory  # worker processes too
