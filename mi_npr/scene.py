@@ -52,6 +52,31 @@ def merge_defines(defines: Mapping[str, Any] | None, more: Mapping[str, Any]) ->
     return {**(defines or {}), **more}
 
 
+#: Folders where scenes look for the files they name (meshes, textures, includes), as Mitsuba's
+#: own ``mitsuba -a``: ``os.pathsep``-separated, searched before the scene's own folder. The
+#: command line's ``-a PATH`` sets it, so a batch's worker processes inherit it.
+SEARCH_PATH_ENV = "MI_NPR_SEARCH_PATH"
+
+
+def search_paths() -> list[str]:
+    """The folders of :data:`SEARCH_PATH_ENV`, each checked to exist."""
+    out = []
+    for p in filter(None, os.environ.get(SEARCH_PATH_ENV, "").split(os.pathsep)):
+        if not os.path.isdir(p):
+            raise ParameterError(f"search path {p!r} ({SEARCH_PATH_ENV}): not a folder")
+        out.append(os.path.abspath(p))
+    return out
+
+
+def _use_search_paths() -> None:
+    """Put :func:`search_paths` first in Mitsuba's file resolver (once each)."""
+    resolver = mi.file_resolver()
+    have = {str(resolver[i]) for i in range(len(resolver))}
+    for p in reversed(search_paths()):
+        if p not in have:
+            resolver.prepend(p)
+
+
 def load_scene(
     scene: str | os.PathLike[str] | mi.Scene,
     /,
@@ -61,7 +86,8 @@ def load_scene(
     """A ``mi.Scene`` from an XML path (``defines`` and keyword arguments fill its
     ``<default>``s), or ``scene`` itself.
 
-    Errors (missing file, malformed XML, unknown parameter, unused define) raise
+    Files the scene names are looked for in :func:`search_paths` first, then as Mitsuba
+    does. Errors (missing file, malformed XML, unknown parameter, unused define) raise
     :class:`~mi_npr.errors.SceneError` with a one-line message that names the file.
     """
     defines = merge_defines(defines, more)
@@ -76,6 +102,7 @@ def load_scene(
     path = os.fspath(scene)
     check_input_file(path, SceneError)
     values = {k: _define_value(k, v) for k, v in defines.items()}
+    _use_search_paths()
     try:
         return mi.load_file(path, optimize=False, **values)
     except Exception as e:  # Mitsuba raises RuntimeError for every parse/instantiation problem

@@ -239,3 +239,30 @@ def test13_variant_errors_speak_the_command_line(ball, tmp_path, capsys):
         "(llvm_*, cuda_*): use --variant llvm_ad_rgb"
     )
     assert not (out / "ball.exr").exists()
+
+
+def test14_search_path_finds_the_files_a_scene_names(tmp_path, capsys, monkeypatch):
+    """``-a PATH`` as Mitsuba's own command: a scene that names ``uv_sphere.ply`` without a
+    folder renders when ``-a`` points at it, in a render and in a batch alike."""
+    import shutil
+
+    monkeypatch.delenv("MI_NPR_SEARCH_PATH", raising=False)
+    meshes = tmp_path / "meshes"
+    meshes.mkdir()
+    shutil.copy(SCENES / "meshes" / "uv_sphere.ply", meshes)
+    xml = tmp_path / "scene" / "s.xml"
+    xml.parent.mkdir()
+    body = '<shape type="ply"><string name="filename" value="uv_sphere.ply"/>'
+    body += '<transform name="to_world"><translate z="4"/></transform></shape>'
+    xml.write_text(scene_xml(body))
+    out = tmp_path / "out"
+    assert cli.main(["render", str(xml), "-o", str(out), "--no-progress"]) == 1
+    assert "uv_sphere.ply" in capsys.readouterr().err
+    assert cli.main(["render", str(xml), "-o", str(out), "-a", str(meshes), "--no-progress"]) == 0
+    gb = read_exr(out / "s.exr")
+    assert list(gb.objects.values()) == ["uv_sphere"] and gb.object_id.any()
+    argv = ["batch", str(xml), "-o", str(tmp_path / "b"), "--workers", "0", "--no-progress"]
+    assert cli.main([*argv, "-a", f"{tmp_path / 'nowhere'}{os.pathsep}{meshes}"]) == 2
+    assert "-a " + str(tmp_path / "nowhere") + ": not a folder" in capsys.readouterr().err
+    assert cli.main([*argv, "-a", str(meshes)]) == 0
+    monkeypatch.delenv("MI_NPR_SEARCH_PATH", raising=False)

@@ -27,6 +27,7 @@ import mi_npr
 from ..data import resolve
 from ..errors import NprError, for_terminal, one_line
 from ..memory import ENV, set_max_memory
+from ..scene import SEARCH_PATH_ENV
 
 PROG = "mi-npr"
 #: The commands, in the order ``--help`` lists them.
@@ -145,6 +146,12 @@ def _run(
                 f"{given} {variant}: mi-npr runs on Mitsuba's JIT variants only "
                 "(llvm_*, cuda_*): use --variant llvm_ad_rgb"
             )
+        if getattr(args, "search_paths", None):  # for the worker processes too
+            paths = [p for a in args.search_paths for p in a.split(os.pathsep) if p]
+            for p in paths:
+                if not os.path.isdir(p):
+                    return _fail(f"-a {p}: not a folder", 2)
+            os.environ[SEARCH_PATH_ENV] = os.pathsep.join(paths)
         if getattr(args, "max_memory", None):
             set_max_memory(args.max_memory)
             os.environ[ENV] = args.max_memory  # worker processes too

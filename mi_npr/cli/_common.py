@@ -9,6 +9,7 @@ parameter's own rule, so a bad value is a usage error naming the flag (exit 2).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
@@ -133,6 +134,16 @@ def add_params(cmd: Any, params: Iterable[Param], who: str) -> None:
 
 
 def add_defines(cmd: argparse.ArgumentParser) -> None:
+    """``-D NAME=VALUE`` and ``-a PATH``: what every command that loads a scene takes."""
+    cmd.add_argument(
+        "-a",
+        dest="search_paths",
+        action="append",
+        default=[],
+        metavar="PATH",
+        help="also look for the files a scene names in PATH (repeatable, or several joined by "
+        f"{os.pathsep!r}), as Mitsuba's own -a",
+    )
     cmd.add_argument(
         "-D",
         dest="defines",
