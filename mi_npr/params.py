@@ -5,7 +5,7 @@ function), the parameter and the value.
 This module is the type and its checks; it knows no drawing and no command-line flag. A table
 (a tuple of :class:`Param`) is owned by the library module whose functions check their
 arguments against it with :func:`check_arg`: each drawing's (:mod:`mi_npr.drawings`), the
-render settings (:data:`mi_npr.session.RENDER_PARAMS`), the batch's, the path's, best view's
+render settings (:data:`mi_npr.scene.RENDER_PARAMS`), the batch's, the path's, best view's
 and the foliage's; the command line builds its flags from them. Every number must be finite,
 and every integer parameter must have a rule with an upper bound (a :class:`Param` of type
 ``int`` without a check is refused when it is declared), so no count can make a run hang.

@@ -23,6 +23,7 @@ from typing import Any
 
 import drjit as dr
 import mitsuba as mi
+import numpy as np
 from tqdm import tqdm
 
 from . import layers as L
@@ -145,9 +146,11 @@ def beauty_layers(
     progress: bool = False,
 ) -> dict[str, Any]:
     """The nested integrator's image (film filter, ``spp`` or the sampler's count): R, G, B as
-    (H, W) tensors. In ``passes`` renders when memory asks for it (:mod:`mi_npr.memory`); with
-    ``progress`` (and stderr a terminal), a long render shows a bar with its ETA
-    (:func:`_render_in_passes`)."""
+    (H, W) tensors, then every channel the integrator writes besides (its ``aov_names()``: the
+    ``aov`` integrator's ``nn.X``..., the ``stokes`` integrator's ``S0.R``...) under its own
+    name (:func:`scene_channel`). In ``passes`` renders when memory asks for it
+    (:mod:`mi_npr.memory`); with ``progress`` (and stderr a terminal), a long render shows a bar
+    with its ETA (:func:`_render_in_passes`)."""
 
     total = spp or sensor.sampler().sample_count()
     if progress and total >= 4 and sys.stderr.isatty():
@@ -158,12 +161,43 @@ def beauty_layers(
     c = int(img.shape[2]) if img.ndim == 3 else 1
     flat = img.array
     idx = dr.arange(mi.UInt32, h * w) * c
+    aovs = list(integrator.aov_names())
+    base = c - len(aovs)  # the film's own channels (RGB, RGBA, Y, YA), then the AOVs
+    if base not in (1, 2, 3, 4):  # an image of another layout (Mitsuba's aov integrator)
+        return _film_channels(sensor.film())
     # Mono variants or odd films (fewer than 3 channels): the first channel three times.
-    pick = [min(i, c - 1) if c >= 3 else 0 for i in range(3)]
-    return {
+    pick = [min(i, base - 1) if base >= 3 else 0 for i in range(3)]
+    out = {
         name: mi.TensorXf(dr.gather(mi.Float, flat, idx + k), shape=(h, w))
         for name, k in zip(L.RGB, pick, strict=True)
     }
+    for k, name in enumerate(aovs):
+        out[scene_channel(name)] = mi.TensorXf(dr.gather(mi.Float, flat, idx + base + k), (h, w))
+    return out
+
+
+def _film_channels(film: mi.Film) -> dict[str, Any]:
+    """R, G, B and every other channel of ``film`` after a render, by the names the film gives
+    them: for integrators whose image does not list the film's channels then their AOVs in
+    order (the ``aov`` integrator leaves its nested image's ``image.R``... out of it)."""
+    bitmap = film.bitmap(raw=False)
+    names = [f.name for f in bitmap.struct_()]
+    data = np.asarray(bitmap, dtype=np.float32)
+    data = data.reshape(*data.shape[:2], -1)
+    rgb = [names.index(n) if n in names else 0 for n in L.RGB]
+    out = {
+        n: mi.TensorXf(np.ascontiguousarray(data[..., k])) for n, k in zip(L.RGB, rgb, strict=True)
+    }
+    for k, name in enumerate(names):
+        if name not in L.RGB and name not in ("A", "W"):
+            out[scene_channel(name)] = mi.TensorXf(np.ascontiguousarray(data[..., k]))
+    return out
+
+
+def scene_channel(name: str) -> str:
+    """The layer of a channel the scene's own integrator writes: its own name (``nn.X``,
+    ``S0.R``), or ``scene.<name>`` where that is a layer of mi-npr's (``Z``, ``N.X``...)."""
+    return f"scene.{name}" if L.spec(name) is not None or name in L.RGB else name
 
 
 def render_gbuffer(
@@ -197,6 +231,7 @@ def render_gbuffer(
                 beauty_layers(session.scene, sensor, beauty, spp or 0, seed, passes, progress)
             )
     ordered = {k: layers[k] for k in L.GBUFFER}
+    ordered.update({k: v for k, v in layers.items() if k not in ordered})  # the scene's AOVs
     spp_used = spp if spp is not None else sensor.sampler().sample_count()
     meta = {
         "mi_npr/version": __version__,

@@ -28,6 +28,7 @@ import mitsuba as mi
 import numpy as np
 
 from .errors import ParameterError, SceneError, check_input_file, one_line
+from .params import MAX_RES, MAX_SPP, Param, check_arg, entry, integer_range, seed_rule
 from .raycast import require_jit
 
 
@@ -50,6 +51,60 @@ def merge_defines(defines: Mapping[str, Any] | None, more: Mapping[str, Any]) ->
     if defines is not None and not isinstance(defines, Mapping):
         raise ParameterError(f"defines: expected a mapping of names to values, got {defines!r}")
     return {**(defines or {}), **more}
+
+
+#: The film and the sampler of any render, whatever the names of the XML's ``<default>``\ s:
+#: the keyword arguments of the render functions and the flags of every command that renders.
+RENDER_PARAMS: tuple[Param, ...] = (
+    Param("width", int, None, "film width (alone: keeps the aspect)", integer_range(1, MAX_RES)),
+    Param("height", int, None, "film height (alone: keeps the aspect)", integer_range(1, MAX_RES)),
+    Param("spp", int, None, "samples per pixel of the beauty", integer_range(1, MAX_SPP)),
+    Param("seed", int, 0, "sampler seed", seed_rule),
+)
+
+
+def check_resolution(resolution: tuple[int | None, int | None] | None) -> tuple | None:
+    """``(W, H)`` with each an int >= 1 or ``None`` (keep the film's aspect), or ``None``."""
+    if resolution is None:
+        return None
+    try:
+        w, h = resolution
+    except (TypeError, ValueError):
+        raise ParameterError(f"resolution = {resolution!r}: expected (width, height)") from None
+    for name, v in (("width", w), ("height", h)):
+        if v is not None and (not isinstance(v, int) or isinstance(v, bool) or v < 1):
+            raise ParameterError(f"{name} = {v!r}: must be a positive integer")
+    return None if w is None and h is None else (w, h)
+
+
+def resize_sensor(
+    sensor: mi.Sensor, resolution: tuple[int | None, int | None] | None, spp: int | None
+) -> mi.Sensor:
+    """Give ``sensor``'s film the size ``resolution`` (a ``None`` side keeps the film's aspect
+    ratio) and its sampler ``spp`` samples per pixel, in place; the crop window becomes the
+    whole film. The horizontal field of view is kept (Mitsuba stores ``x_fov``), so a wider
+    aspect shows less vertically, as resizing the XML's ``<film>`` with ``fov_axis="x"`` does.
+    Rays of the resized sensor equal those of a sensor loaded at that size (tested)."""
+    if spp is not None:
+        sensor.sampler().set_sample_count(spp)
+    res = check_resolution(resolution)
+    if res is None:
+        return sensor
+    w0, h0 = (int(v) for v in sensor.film().size())
+    w, h = res
+    if w is None:
+        w = max(1, round(h * w0 / h0))
+    if h is None:
+        h = max(1, round(w * h0 / w0))
+    params = mi.traverse(sensor)
+    if "film.size" not in params:
+        raise ParameterError(f"{sensor.class_name()}: its film cannot be resized")
+    params["film.size"] = mi.ScalarVector2u(w, h)
+    params["film.crop_size"] = mi.ScalarVector2u(w, h)
+    if "film.crop_offset" in params:
+        params["film.crop_offset"] = mi.ScalarPoint2u(0, 0)
+    params.update()
+    return sensor
 
 
 #: Folders where scenes look for the files they name (meshes, textures, includes), as Mitsuba's
@@ -83,8 +138,13 @@ def load_scene(
     defines: Mapping[str, Any] | None = None,
     **more: Any,
 ) -> mi.Scene:
-    """A ``mi.Scene`` from an XML path (``defines`` and keyword arguments fill its
+    r"""A ``mi.Scene`` from an XML path (``defines`` and keyword arguments fill its
     ``<default>``s), or ``scene`` itself.
+
+    ``width``, ``height`` and ``spp`` size every scene, whatever its ``<default>``\ s are named
+    (as the command line's ``--width --height --spp``): a scene that declares the default gets
+    the value there; any other gets its sensors' films and samplers resized after loading
+    (:func:`resize_sensor`; one of ``width``/``height`` alone keeps the film's aspect).
 
     Files the scene names are looked for in :func:`search_paths` first, then as Mitsuba
     does. Errors (missing file, malformed XML, unknown parameter, unused define) raise
@@ -101,10 +161,12 @@ def load_scene(
         raise ParameterError(f"expected a scene or an XML path, got {type(scene).__name__}")
     path = os.fspath(scene)
     check_input_file(path, SceneError)
+    declared = declared_defaults(path)
+    size = {k: _size(k, defines.pop(k)) for k in _SIZE if k in defines and k not in declared}
     values = {k: _define_value(k, v) for k, v in defines.items()}
     _use_search_paths()
     try:
-        return mi.load_file(path, optimize=False, **values)
+        loaded = mi.load_file(path, optimize=False, **values)
     except Exception as e:  # Mitsuba raises RuntimeError for every parse/instantiation problem
         unused = re.findall(r"\$(\w+)=", str(e)) if "unused parameters" in str(e) else []
         if unused:
@@ -122,6 +184,25 @@ def load_scene(
                 "llvm_ad_spectral_polarized, with --variant or mi_npr.set_variant)"
             )
         raise SceneError(msg) from None
+    if size:
+        res = (size.get("width"), size.get("height"))
+        for sensor in loaded.sensors():
+            resize_sensor(sensor, None if res == (None, None) else res, size.get("spp"))
+    return loaded
+
+
+#: The film and sampler settings every scene takes, whatever its ``<default>``\ s are named.
+_SIZE = ("width", "height", "spp")
+
+
+def _size(name: str, value: Any) -> int:
+    """A ``width``, ``height`` or ``spp`` define as a checked int (a command-line string too)."""
+    if isinstance(value, str):
+        try:
+            value = int(value)
+        except ValueError:
+            raise ParameterError(f"{name} = {value!r}: must be a positive integer") from None
+    return check_arg("load_scene", entry(RENDER_PARAMS, name), value)
 
 
 def declared_defaults(path: str | os.PathLike[str]) -> set[str]:

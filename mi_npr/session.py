@@ -30,28 +30,22 @@ from typing import Any
 import mitsuba as mi
 
 from .errors import ParameterError, SceneError, one_line
-from .params import MAX_RES, MAX_SPP, Param, check_arg, entry, integer_range, seed_rule
+from .params import check_arg, entry
 from .raycast import require_jit
-from .scene import (
+from .scene import (  # RENDER_PARAMS, check_resolution, resize_sensor: also this module's API
+    RENDER_PARAMS,
     ObjectTable,
+    check_resolution,
     declared_defaults,
     load_scene,
     merge_defines,
     object_table,
+    resize_sensor,
     sensor_of,
 )
 
 #: Mitsuba scenes must not be rendered from two threads at once.
 RENDER_LOCK = threading.RLock()
-
-#: The film and the sampler of any render, whatever the names of the XML's ``<default>``\ s:
-#: the keyword arguments of the render functions and the flags of every command that renders.
-RENDER_PARAMS: tuple[Param, ...] = (
-    Param("width", int, None, "film width (alone: keeps the aspect)", integer_range(1, MAX_RES)),
-    Param("height", int, None, "film height (alone: keeps the aspect)", integer_range(1, MAX_RES)),
-    Param("spp", int, None, "samples per pixel of the beauty", integer_range(1, MAX_SPP)),
-    Param("seed", int, 0, "sampler seed", seed_rule),
-)
 
 
 def check_spp(spp: int | str | None) -> int | None:
@@ -65,50 +59,6 @@ def check_spp(spp: int | str | None) -> int | None:
         except ValueError:
             raise ParameterError(f"spp = {spp!r}: must be a positive integer") from None
     return check_arg("render", entry(RENDER_PARAMS, "spp"), spp)
-
-
-def check_resolution(resolution: tuple[int | None, int | None] | None) -> tuple | None:
-    """``(W, H)`` with each an int >= 1 or ``None`` (keep the film's aspect), or ``None``."""
-    if resolution is None:
-        return None
-    try:
-        w, h = resolution
-    except (TypeError, ValueError):
-        raise ParameterError(f"resolution = {resolution!r}: expected (width, height)") from None
-    for name, v in (("width", w), ("height", h)):
-        if v is not None and (not isinstance(v, int) or isinstance(v, bool) or v < 1):
-            raise ParameterError(f"{name} = {v!r}: must be a positive integer")
-    return None if w is None and h is None else (w, h)
-
-
-def resize_sensor(
-    sensor: mi.Sensor, resolution: tuple[int | None, int | None] | None, spp: int | None
-) -> mi.Sensor:
-    """Give ``sensor``'s film the size ``resolution`` (a ``None`` side keeps the film's aspect
-    ratio) and its sampler ``spp`` samples per pixel, in place; the crop window becomes the
-    whole film. The horizontal field of view is kept (Mitsuba stores ``x_fov``), so a wider
-    aspect shows less vertically, as resizing the XML's ``<film>`` with ``fov_axis="x"`` does.
-    Rays of the resized sensor equal those of a sensor loaded at that size (tested)."""
-    if spp is not None:
-        sensor.sampler().set_sample_count(spp)
-    res = check_resolution(resolution)
-    if res is None:
-        return sensor
-    w0, h0 = (int(v) for v in sensor.film().size())
-    w, h = res
-    if w is None:
-        w = max(1, round(h * w0 / h0))
-    if h is None:
-        h = max(1, round(w * h0 / w0))
-    params = mi.traverse(sensor)
-    if "film.size" not in params:
-        raise ParameterError(f"{sensor.class_name()}: its film cannot be resized")
-    params["film.size"] = mi.ScalarVector2u(w, h)
-    params["film.crop_size"] = mi.ScalarVector2u(w, h)
-    if "film.crop_offset" in params:
-        params["film.crop_offset"] = mi.ScalarPoint2u(0, 0)
-    params.update()
-    return sensor
 
 
 @dataclass

@@ -77,3 +77,24 @@ def test06_cornell_box_keeps_every_wall_separate():
         "red-wall",
         "small-box",
     }
+
+
+def test07_any_scene_is_sized_from_python(tmp_path):
+    """``width``, ``height`` and ``spp`` size a scene whatever its ``<default>``\\ s are named, in
+    ``mi_npr.load_scene`` and ``mi_npr.render`` as on the command line: a film of 32 x 24 whose
+    default is called ``res``; one side alone keeps the aspect; a declared default still takes
+    the value itself."""
+    from .public_style import room
+
+    path = room(tmp_path)  # <default name="res" .../>: no width or height default
+    scene = mi_npr.load_scene(path, width=32, height=24, spp=2)
+    (sensor,) = scene.sensors()
+    assert tuple(sensor.film().size()) == (32, 24) and sensor.sampler().sample_count() == 2
+    gb = mi_npr.render(path, width=20, height=10)
+    assert gb.shape == (10, 20)
+    assert tuple(mi_npr.load_scene(path, width=30).sensors()[0].film().size()) == (30, 30)
+    with pytest.raises(mi_npr.ParameterError, match="width = 'wide'"):
+        mi_npr.load_scene(path, width="wide")
+    # scene1 declares width/height: the defaults take them (its `res`-free film is 64 x 48)
+    gb = mi_npr.render(SCENES / "scene1.xml", width=64, height=48, spp=1)
+    assert gb.shape == (48, 64)

@@ -90,7 +90,7 @@ def test_every_command_and_flag_of_mi_npr_is_documented():
     rows = {r[0]: r[1:] for r in _rows(cli_ref.parser_nodes(render, "render"))}
     assert rows["-o, --output"][1] == "required"
     assert rows["--svg-image"][1] == "embed"
-    assert rows["--seed"][0] == "N (int)"  # the type of mi_npr.session.RENDER_PARAMS' seed
+    assert rows["--seed"][0] == "N (int)"  # the type of mi_npr.scene.RENDER_PARAMS' seed
 
 
 @pytest.mark.parametrize(

@@ -247,3 +247,50 @@ def test09_progress_keeps_its_probe(tmp_path, monkeypatch):
     calls.clear()
     M.render_passes(Spy(), scene, sensor, 3, 0, passes=8, first=(integ.render(scene, sensor), 1))
     assert [n for _, n in calls] == [1, 1]
+
+
+AOV_SCENE = """<scene version="3.0.0">
+    <integrator type="aov">
+        <string name="aovs" value="dd.y:depth,nn:sh_normal,Z:depth"/>
+        {inner}
+    </integrator>
+    <sensor type="perspective">
+        <transform name="to_world"><lookat origin="0, 0, -4" target="0, 0, 0" up="0, 1, 0"/>
+        </transform>
+        <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="16"/>
+            <rfilter type="box"/></film>
+        <sampler type="stratified"><integer name="sample_count" value="1"/>
+            <boolean name="jitter" value="false"/></sampler>
+    </sensor>
+    <shape type="sphere" id="ball"/>
+    <emitter type="constant"/>
+</scene>"""
+
+
+@pytest.mark.parametrize("inner", ["", '<integrator type="path" name="image"/>'])
+def test10_the_scene_integrators_own_channels_are_kept(tmp_path, inner):
+    """Mitsuba's ``aov`` integrator as the scene's: its channels reach the EXR under its own
+    names, its depth (the distance along the pixel-centre ray from the near clip plane: no
+    jitter, box filter) agrees with mi-npr's exact ``P`` and ``Z`` where it hits, and the
+    beauty is its nested image (or black without one) rather than its first AOVs."""
+    path = tmp_path / "aov.xml"
+    path.write_text(AOV_SCENE.format(inner=inner))
+    assert cli.main(["render", str(path), "-o", str(tmp_path / "o"), "--lines"]) == 0
+    gb = read_exr(tmp_path / "o" / "aov.exr")
+    assert {"dd.y.T", "nn.X", "nn.Y", "nn.Z", "Z.T", "lines.V"} <= set(gb.names)
+    hit = np.isfinite(gb.numpy(L.Z))
+    assert hit.any() and not hit.all()
+    distance = np.linalg.norm(gb.stack(list(L.P)) - [0.0, 0.0, -4.0], axis=-1)
+    near = 0.01  # the sensor's near clip, where Mitsuba's rays start
+    along = distance * (1.0 - near / gb.numpy(L.Z))  # from the near plane to the hit
+    np.testing.assert_allclose(gb.numpy("dd.y.T")[hit], along[hit], rtol=1e-4)
+    assert np.all(gb.numpy("dd.y.T")[~hit] == 0)
+    normal = np.stack([gb.numpy(f"nn.{c}") for c in "XYZ"], -1)[hit]
+    np.testing.assert_allclose(np.linalg.norm(normal, axis=-1), 1.0, atol=1e-4)
+    beauty = gb.stack(L.RAW_RGB)
+    if inner:
+        assert beauty[hit].min() > 0 and np.allclose(
+            beauty, gb.stack(["image.R", "image.G", "image.B"])
+        )
+    else:
+        assert np.all(beauty == 0)

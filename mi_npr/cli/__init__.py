@@ -24,10 +24,10 @@ from types import ModuleType
 
 import mi_npr
 
+# Only modules that do not import Dr.Jit at the top: this runs before the LLVM check.
 from ..data import resolve
 from ..errors import NprError, for_terminal, one_line
 from ..memory import ENV, set_max_memory
-from ..scene import SEARCH_PATH_ENV
 
 PROG = "mi-npr"
 #: The commands, in the order ``--help`` lists them.
@@ -146,6 +146,9 @@ def _run(
                 f"{given} {variant}: mi-npr runs on Mitsuba's JIT variants only "
                 "(llvm_*, cuda_*): use --variant llvm_ad_rgb"
             )
+        # imported here, after the start-up checks: scene.py imports Dr.Jit
+        from ..scene import SEARCH_PATH_ENV
+
         if getattr(args, "search_paths", None):  # for the worker processes too
             paths = [p for a in args.search_paths for p in a.split(os.pathsep) if p]
             for p in paths:
