@@ -46,8 +46,8 @@ from .kernels._stencil import Grid
 from .kernels.chain import fade
 from .kernels.ink import MAX_WIDTH
 from .params import check_values
-from .raycast import film_grid, film_size, pixel_rays, require_jit
-from .render import channels
+from .raycast import film_size, require_jit
+from .render import grid_channels
 from .scene import object_table
 from .session import RENDER_LOCK
 
@@ -74,16 +74,15 @@ def check_aa_width(width: float, n: int, who: str = "") -> None:
 
 def supersampled_gbuffer(scene: mi.Scene, sensor: mi.Sensor, n: int) -> GBuffer:
     """The G-buffer layers ``Z P N object_id prim_id`` of ``n x n`` rays per pixel, laid out as
-    an ``(n H, n W)`` image (the pixel-centre G-buffer of a film ``n`` times larger)."""
+    an ``(n H, n W)`` image (the pixel-centre G-buffer of a film ``n`` times larger, seams closed
+    as in :mod:`mi_npr.render`)."""
     require_jit("line_aa")
     w, h = film_size(sensor)
     W, H = w * n, h * n
     with RENDER_LOCK:
         table = object_table(scene)
         # (j + 0.5) / n film pixels: the centre of sub-pixel j of the n-times-larger film.
-        x, y = film_grid(W, H)
-        out = channels(scene, sensor, pixel_rays(sensor, x / n, y / n), table, shade=False)
-        dr.eval(*out.values())
+        out = grid_channels(scene, sensor, table, shade=False, n=n)
     TF, TU = mi.TensorXf, mi.TensorXu
     layers = {
         k: (TU if isinstance(out[k], mi.UInt32) else TF)(out[k], shape=(H, W))

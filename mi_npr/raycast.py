@@ -46,6 +46,12 @@ def require_jit(what: str = "mi-npr") -> None:
         )
 
 
+#: How far (in grid cells) the rays that re-cast a seam pixel lie from its centre (the seam rule
+#: of :mod:`mi_npr.render`): far from float32's resolution of film positions, far below any
+#: feature drawn.
+SEAM_OFFSET = 1e-3
+
+
 def film_size(sensor: mi.Sensor) -> tuple[int, int]:
     """``(width, height)`` of the sensor's crop window."""
     w, h = sensor.film().crop_size()

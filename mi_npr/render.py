@@ -11,6 +11,18 @@ progress bar (:func:`beauty_layers`, ``progress=True`` on a terminal).
 Per pixel (see :mod:`mi_npr.layers`): ``Z`` camera-space depth along the view axis (+inf on a
 miss), ``P`` world position, ``N`` shading normal, ``object_id``, ``prim_id``, and ``R G B``.
 JIT variants only (:func:`mi_npr.raycast.require_jit`).
+
+**Seams.** A ray that meets a mesh exactly on the edge shared by two of its triangles can slip
+between them (Embree's and OptiX's intersection tests are not watertight there): it misses, or
+hits whatever lies behind, and a whole grid of rays through pixel centres meets such edges
+wherever a mesh's diagonal runs through them, so the lines, contours and ids got 1-px specks. The
+rule (:func:`grid_channels`, for the pixel-centre pass and the anti-aliased lines' sub-pixel
+grid alike): a ray whose 4-neighbours in the grid (those inside it, at least two) all hit one
+object ``k`` while it hits another object, or nothing, or ``k`` farther than all of them, is
+cast again :data:`~mi_npr.raycast.SEAM_OFFSET` of a grid cell away along the four diagonals;
+the first of those rays that hits ``k`` within the neighbours' depth range (widened by their
+own spread) replaces it. A real one-cell feature (a hole, a dimple, a thin object) is seen by
+the offset rays too and stays as it is.
 """
 
 from __future__ import annotations
@@ -31,7 +43,7 @@ from ._version import __version__
 from .camera import projection_of
 from .gbuffer import GBuffer
 from .memory import check_render, render_passes
-from .raycast import Hits, cast, film_grid, film_size, pixel_rays, require_jit
+from .raycast import SEAM_OFFSET, Hits, cast, film_grid, film_size, pixel_rays, require_jit
 from .scene import ObjectTable, merge_defines, sensor_of
 from .session import SceneSession, check_spp
 
@@ -87,12 +99,88 @@ def channels(
     return out
 
 
+def grid_channels(
+    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, shade: bool, n: int = 1
+) -> dict[str, Any]:
+    """The channels of the rays through the cell centres of an ``n W x n H`` grid over the
+    film (``n = 1``: the pixel centres; cell ``j`` is at ``(j + 0.5) / n`` film pixels), row
+    major, evaluated, with the seams closed (module docstring)."""
+    w, h = film_size(sensor)
+    W, H = w * n, h * n
+    x, y = film_grid(W, H)
+    out = channels(scene, sensor, pixel_rays(sensor, x / n, y / n), table, shade)
+    dr.eval(*out.values())
+    return _close_seams(scene, sensor, table, shade, out, W, H, n)
+
+
+def _close_seams(
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    table: ObjectTable,
+    shade: bool,
+    out: dict[str, Any],
+    W: int,
+    H: int,
+    n: int,
+) -> dict[str, Any]:
+    ids, z = out[L.OBJECT_ID], out[L.Z]
+    i = dr.arange(mi.UInt32, W * H)
+    px, py = mi.Int32(i % W), mi.Int32(i // W)
+    inside, nid, nz = [], [], []
+    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        qx, qy = px + dx, py + dy
+        ok = (qx >= 0) & (qx < W) & (qy >= 0) & (qy < H)
+        q = mi.UInt32(dr.clip(qy, 0, H - 1) * W + dr.clip(qx, 0, W - 1))
+        inside.append(ok)
+        nid.append(dr.gather(mi.UInt32, ids, q))
+        nz.append(dr.gather(mi.Float, z, q))
+    ref = dr.select(inside[0], nid[0], nid[1])  # one neighbour inside the grid (W >= 2)
+    ref = dr.select(inside[0] | inside[1], ref, dr.select(inside[2], nid[2], nid[3]))
+    agree, count = mi.Bool(True), mi.UInt32(0)
+    zmin, zmax = mi.Float(dr.inf), mi.Float(-dr.inf)
+    for ok, k, d in zip(inside, nid, nz, strict=True):
+        agree &= ~ok | (k == ref)
+        count += dr.select(ok, 1, 0)
+        zmin = dr.select(ok, dr.minimum(zmin, d), zmin)
+        zmax = dr.select(ok, dr.maximum(zmax, d), zmax)
+    spread = zmax - zmin + 1e-4 * zmax
+    suspect = agree & (count >= 2) & (ref != 0) & ((ids != ref) | (z > zmax + spread))
+    m = int(dr.count(suspect)[0])
+    if m == 0:
+        return out
+    idx = dr.compress(suspect)
+    sx, sy = mi.Float(dr.gather(mi.Int32, px, idx)), mi.Float(dr.gather(mi.Int32, py, idx))
+    want = dr.gather(mi.UInt32, ref, idx)
+    lo = dr.gather(mi.Float, zmin - spread, idx)
+    hi = dr.gather(mi.Float, zmax + spread, idx)
+    e = SEAM_OFFSET
+    offsets = ((e, e), (-e, e), (e, -e), (-e, -e))
+    cx = dr.concat([sx + 0.5 + ox for ox, _ in offsets])
+    cy = dr.concat([sy + 0.5 + oy for _, oy in offsets])
+    again = channels(scene, sensor, pixel_rays(sensor, cx / n, cy / n), table, shade)
+    chosen, found = mi.UInt32(0), mi.Bool(False)
+    for k in range(len(offsets)):
+        j = dr.arange(mi.UInt32, m) + k * m
+        cid = dr.gather(mi.UInt32, again[L.OBJECT_ID], j)
+        cz = dr.gather(mi.Float, again[L.Z], j)
+        ok = ~found & (cid == want) & (cz >= lo) & (cz <= hi)
+        chosen = dr.select(ok, j, chosen)
+        found |= ok
+    fixed = dict(out)
+    for name, v in out.items():
+        t = type(v)
+        new = t(v)  # a copy: the scatter must not change the caller's arrays
+        dr.scatter(new, dr.gather(t, again[name], chosen, found), idx, found)
+        fixed[name] = new
+    dr.eval(*fixed.values())
+    return fixed
+
+
 def gbuffer_layers(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, shade: bool) -> dict:
     """Run the pixel-centre pass: ``{name: (H, W) tensor}`` (Dr.Jit, evaluated, gradients kept
-    on AD variants)."""
+    on AD variants), seams closed (module docstring)."""
     w, h = film_size(sensor)
-    out = channels(scene, sensor, pixel_rays(sensor, *film_grid(w, h)), table, shade)
-    dr.eval(*out.values())
+    out = grid_channels(scene, sensor, table, shade)
     TF, TU = mi.TensorXf, mi.TensorXu
     return {k: (TU if isinstance(v, mi.UInt32) else TF)(v, shape=(h, w)) for k, v in out.items()}
 

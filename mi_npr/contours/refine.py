@@ -27,7 +27,8 @@ from them; both cast rays on demand instead of rendering an ID buffer. :func:`tr
    in one batch per round, for all contours together; new cracks among them ask for their own, and
    so on until nothing is missing. Each crack's whole contour is then known, so the crack cycles
    of the partial ID map are *exactly* the buffer-mode contours they belong to, and the same
-   tracer (:func:`mi_npr.contours.trace.cycles`) orders them. A contour is found entirely or not
+   tracer (:func:`mi_npr.contours.trace.cycles`) orders them, once the seams of the G-buffer
+   pass are closed on the ids cast (:func:`close_seams`). A contour is found entirely or not
    at all.
 4. **One start pixel per contour piece** (the paper keeps one per *object* and loses the other
    pieces): the refinement's 2x2 blocks give many candidate crack pixels per contour; each contour
@@ -80,7 +81,7 @@ import numpy as np
 
 from ..camera import projection_of
 from ..errors import ParameterError
-from ..raycast import cast, film_size, pixel_centres, pixel_rays
+from ..raycast import SEAM_OFFSET, cast, film_size, pixel_centres, pixel_rays
 from ..scene import merge_defines
 from ..session import SceneSession
 from .contour import Contour
@@ -143,6 +144,18 @@ class Caster:
         """(K, 4) film-space boxes ``x0, y0, x1, y1`` of objects that may hide between corner rays
         (step 2), or ``None`` when unknown."""
         return None
+
+    def seam_ids(self, x: np.ndarray, y: np.ndarray) -> np.ndarray | None:
+        """(4, K) ids of the rays a hair from the centres of pixels ``(x, y)`` along the four
+        diagonals (:func:`close_seams`), or ``None`` when this caster cannot cast them."""
+        return None
+
+    def set_ids(self, x: np.ndarray, y: np.ndarray, ids: np.ndarray) -> None:
+        """Replace the ids of known pixels ``(x, y)``."""
+        pix = self.index(x, y)
+        dr.scatter(self.ids, mi.UInt32(np.ascontiguousarray(ids, np.uint32)), pix)
+        dr.eval(self.ids)
+        self._grid = None
 
     def index(self, x: Any, y: Any) -> mi.UInt32:
         """Flat padded index of pixels ``(x, y)`` (numpy or Dr.Jit integers)."""
@@ -261,6 +274,15 @@ class RayCaster(Caster):
     def compute_jit(self, pix: mi.UInt32) -> mi.UInt32:
         ray = pixel_rays(self.sensor, *pixel_centres(pix % self.stride - 1, pix // self.stride - 1))
         return cast(self.scene, ray, self.id_map.table).ids(self.id_map)
+
+    def seam_ids(self, x: np.ndarray, y: np.ndarray) -> np.ndarray | None:
+        e = SEAM_OFFSET
+        offsets = ((e, e), (-e, e), (e, -e), (-e, -e))
+        fx = np.concatenate([x + 0.5 + ox for ox, _ in offsets]).astype(np.float32)
+        fy = np.concatenate([y + 0.5 + oy for _, oy in offsets]).astype(np.float32)
+        ray = pixel_rays(self.sensor, mi.Float(fx), mi.Float(fy))
+        ids = cast(self.scene, ray, self.id_map.table).ids(self.id_map)
+        return np.asarray(ids.numpy(), np.uint32).reshape(4, -1)
 
     def guard_boxes(self, macro: int = MACRO) -> np.ndarray | None:
         """Pixel boxes of the shapes, and of the components of the meshes whose own box does
@@ -501,6 +523,45 @@ def trace_scene(
     return contours, stats
 
 
+def close_seams(caster: Caster) -> int:
+    """The seam rule of :mod:`mi_npr.render` on the ids cast so far: a known pixel whose known
+    4-neighbours inside the image (at least two) all have one non-background id it does not
+    have takes that id when a ray a hair from its centre sees it. Ray-cast contours then equal
+    buffer mode's, whose G-buffer closes the same seams (this mode has no depths, so the
+    neighbours' depth range is not checked, and in the ``primitive`` mode the two triangles of
+    a seam never agree). Returns the number of pixels changed."""
+    g = caster.grid
+    if g.known is None:
+        return 0
+    s, h, w = g.stride, g.height, g.width
+    ids = g.ids.reshape(h + 2, s)
+    known = g.known.reshape(h + 2, s)
+    centre, ck = ids[1:-1, 1:-1], known[1:-1, 1:-1]
+    sides = [(ids[1:-1, 2:], known[1:-1, 2:]), (ids[1:-1, :-2], known[1:-1, :-2])]
+    sides += [(ids[2:, 1:-1], known[2:, 1:-1]), (ids[:-2, 1:-1], known[:-2, 1:-1])]
+    inside = [k & (v != OUTSIDE) for v, k in sides]
+    ref = np.full((h, w), OUTSIDE, np.uint32)
+    for (v, _), ok in zip(sides, inside, strict=True):
+        ref = np.where((ref == OUTSIDE) & ok, v, ref)
+    agree = np.ones((h, w), bool)
+    count = np.zeros((h, w), np.int64)
+    for (v, k), ok in zip(sides, inside, strict=True):
+        agree &= ~(v != OUTSIDE) | (k & (v == ref))  # an unknown neighbour: no verdict
+        count += ok
+    cand = ck & agree & (count >= 2) & (ref != 0) & (ref != OUTSIDE) & (centre != ref)
+    ys, xs = np.nonzero(cand)
+    if len(xs) == 0:
+        return 0
+    again = caster.seam_ids(xs, ys)
+    if again is None:
+        return 0
+    want = ref[ys, xs]
+    hit = np.any(again == want[None, :], axis=0)
+    if hit.any():
+        caster.set_ids(xs[hit], ys[hit], want[hit])
+    return int(hit.sum())
+
+
 def check_macro(macro: int) -> int:
     if not isinstance(macro, int) or isinstance(macro, bool) or macro < 1:
         raise ParameterError(f"macro = {macro!r}: must be a positive integer")
@@ -528,6 +589,7 @@ def run(
     t2 = time.perf_counter()
     stats.times["guard"] = t2 - t1
     follow(caster)
+    close_seams(caster)
     t3 = time.perf_counter()
     stats.times["follow"] = t3 - t2
     g = caster.grid  # the one read-back of the cache
