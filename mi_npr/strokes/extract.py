@@ -26,6 +26,7 @@ from typing import Any
 import mitsuba as mi
 import numpy as np
 
+from ..gbuffer import Camera
 from ..scene import ObjectTable, object_table
 from .chain import chain_pieces
 from .edges import FeatureEdges, Projector, feature_edges
@@ -196,14 +197,14 @@ def _mesh_strokes(pieces: _Pieces, chain_angle: float) -> list[Stroke]:
 
 
 def _add_depth_behind(
-    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, strokes: list[Stroke], fwd: np.ndarray
+    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, strokes: list[Stroke], camera: Camera
 ) -> None:
     if not strokes:
         return
     pts = np.concatenate([s.points for s in strokes])
     nrm = np.concatenate([normals_2d(s.points, s.closed) for s in strokes])
-    a = probe(scene, sensor, table, pts + BESIDE * nrm, fwd)["depth"]
-    b = probe(scene, sensor, table, pts - BESIDE * nrm, fwd)["depth"]
+    a = probe(scene, sensor, table, pts + BESIDE * nrm, camera)["depth"]
+    b = probe(scene, sensor, table, pts - BESIDE * nrm, camera)["depth"]
     behind = np.maximum(a, b)
     i = 0
     for s in strokes:
@@ -228,12 +229,12 @@ def extract_strokes(
     depth (default: the strokes' own)."""
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
-    fwd = proj.camera.forward
+    camera = proj.camera
     edges = feature_edges(table, proj.origin, crease_angle)
     strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)
-    strokes += outline_strokes(scene, sensor, table, fwd)
+    strokes += outline_strokes(scene, sensor, table, camera)
     strokes = [s for s in strokes if len(s) >= 2]
-    _add_depth_behind(scene, sensor, table, strokes, fwd)
+    _add_depth_behind(scene, sensor, table, strokes, camera)
     if depth_range is None:
         depths = np.concatenate([s.depth for s in strokes]) if strokes else np.zeros(0)
         depths = depths[np.isfinite(depths)]

@@ -39,6 +39,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..contours.vector import VectorPath, douglas_peucker, vectorize
+from ..gbuffer import Camera
 from ..raycast import film_grid, pixel_rays
 from ..scene import ObjectTable
 from .model import Stroke
@@ -55,11 +56,11 @@ TOLERANCE = 0.02
 
 
 def probe(
-    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, xy: np.ndarray, forward: np.ndarray
+    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, xy: np.ndarray, camera: Camera
 ) -> dict[str, np.ndarray]:
     """What the pixel ray through each film position ``xy`` (N, 2) sees first, through glass:
-    ``hit``, ``object_id``, ``prim``, ``position`` (N, 3), ``depth`` (camera depth along the
-    unit view axis ``forward``, +inf on a miss), ``cos`` (``|n . d|``) and ``glass``."""
+    ``hit``, ``object_id``, ``prim``, ``position`` (N, 3), ``depth`` (along ``camera``'s view axis
+    from its origin: the ``Z`` layer's; +inf on a miss), ``cos`` (``|n . d|``) and ``glass``."""
     xy = np.asarray(xy, np.float64).reshape(-1, 2)
     if len(xy) == 0:
         z = np.zeros(0)
@@ -81,8 +82,7 @@ def probe(
     cos = dr.abs(dr.dot(si.n, ray.d))
     hit_np = np.asarray(hit.numpy(), bool)
     p = np.stack([np.asarray(c.numpy(), np.float64) for c in (si.p.x, si.p.y, si.p.z)], -1)
-    o = np.stack([np.asarray(c.numpy(), np.float64) for c in (ray.o.x, ray.o.y, ray.o.z)], -1)
-    depth = np.where(hit_np, (p - o) @ np.asarray(forward, np.float64), np.inf)
+    depth = np.where(hit_np, (p - camera.origin) @ camera.forward, np.inf)
     return {
         "hit": hit_np,
         "object_id": np.asarray(oid.numpy(), np.uint32),
@@ -147,7 +147,7 @@ def outline_strokes(
     scene: mi.Scene,
     sensor: mi.Sensor,
     table: ObjectTable,
-    forward: np.ndarray,
+    camera: Camera,
 ) -> list[Stroke]:
     """The outline strokes of every shape that is not a mesh (module docstring)."""
     lut = analytic_ids(table)
@@ -156,12 +156,12 @@ def outline_strokes(
     w, h = (int(v) for v in sensor.film().crop_size())
     gx, gy = film_grid(w, h)
     centres = np.stack([np.asarray(gx.numpy(), np.float64), np.asarray(gy.numpy(), np.float64)], 1)
-    ids = lut[probe(scene, sensor, table, centres, forward)["object_id"]].reshape(h, w)
+    ids = lut[probe(scene, sensor, table, centres, camera)["object_id"]].reshape(h, w)
     if not ids.any():
         return []
 
     def ids_at(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return lut[probe(scene, sensor, table, np.stack([x, y], 1), forward)["object_id"]]
+        return lut[probe(scene, sensor, table, np.stack([x, y], 1), camera)["object_id"]]
 
     paths = vectorize(ids, objects=table.names, ids_at=ids_at, tolerance=0.0, iterations=ITERATIONS)
     paths = [p for p in paths if len(p) >= 2]
@@ -169,8 +169,8 @@ def outline_strokes(
         return []
     pts = np.concatenate([p.points for p in paths])
     nrm = np.concatenate([normals_2d(p.points, p.closed) for p in paths])
-    a = probe(scene, sensor, table, pts + PROBE * nrm, forward)
-    b = probe(scene, sensor, table, pts - PROBE * nrm, forward)
+    a = probe(scene, sensor, table, pts + PROBE * nrm, camera)
+    b = probe(scene, sensor, table, pts - PROBE * nrm, camera)
     out: list[Stroke] = []
     start = 0
     for path in paths:
