@@ -44,7 +44,7 @@ from .raytree.lights import HARD, check_shadow_lights
 from .raytree.render import add_raytree
 from .raytree.tracer import MAX_DEPTH
 from .session import SceneSession
-from .strokes.drawing import STROKES_PARAMS, draw_strokes, frame_depth_range
+from .strokes.drawing import STROKES_PARAMS, depth_range_of, draw_strokes
 from .strokes.raster import on_background
 
 #: How a drawing meets the beauty (module docstring).
@@ -263,7 +263,7 @@ def _draw_strokes(session: SceneSession, gb: GBuffer, p: Mapping[str, Any], **_:
         session.sensor,
         session.objects,
         p,
-        depth_range=frame_depth_range(z) if z is not None else None,
+        depth_range=depth_range_of(z) if z is not None else None,
     )
     raw = raw_beauty(gb)
     picture = on_background(done.alpha, done.ink, raw)

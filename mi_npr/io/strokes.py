@@ -21,14 +21,16 @@
 
 One Inkscape layer per edge kind (in :data:`~mi_npr.strokes.KINDS` order), one group per
 object inside it (the object of the stroke's first vertex), one ``<path>`` per drawn stroke
-(``data-stroke``: its index in the JSON file). A stroke of constant width is a stroked path
-(``stroke-width``); one whose width varies (depth, tapers) is its *filled outline*: the
-centreline offset by half the width on either side at every vertex (along the vertex
-normal of :func:`mi_npr.strokes.outlines.normals_2d`), closed (a closed stroke: its two
-offset rings, ``fill-rule="evenodd"``). Dashed strokes (hidden lines) stay stroked paths
-with ``stroke-dasharray`` at their mean width. A stroke's opacity in SVG is its mean
-opacity (``stroke-opacity``/``fill-opacity``; the JSON has it per vertex). Coordinates have
-3 decimals (0.0005 px). No raster image is embedded.
+(``data-stroke``: its index in the JSON file; a stroke transparent everywhere is left out).
+A stroke of constant width is a stroked path (``stroke-width``); one whose width varies
+(depth, tapers) is its *filled outline*: the centreline offset by half the width on either
+side at every vertex (along the vertex normal of :func:`mi_npr.strokes.outlines.normals_2d`),
+closed (a closed stroke: its two offset rings, ``fill-rule="evenodd"``). Dashed strokes
+(hidden lines) stay stroked paths with ``stroke-dasharray`` at their mean width. A stroke of
+one opacity below 1 carries it (``stroke-opacity``, ``fill-opacity``); a stroke whose opacity
+varies along it (the ``thesis`` style) is a ``<g>`` of stroked paths, one per run of segments
+of one opacity (in steps of 1/32; the JSON has it per vertex). Coordinates have 3 decimals
+(0.0005 px). No raster image is embedded.
 
 **JSON** (UTF-8; non-finite numbers are ``null``)::
 
@@ -78,6 +80,8 @@ from .svg import xml_id
 from .text import quoteattr, write_text
 
 _INKSCAPE = "http://www.inkscape.org/namespaces/inkscape"
+#: Opacity levels of the SVG paths of a stroke whose opacity varies.
+OPACITY_STEPS = 32
 
 
 def _num(v: float) -> str:
@@ -131,6 +135,8 @@ def stroke_svg(drawing: StrokeDrawing, title: str | None = None) -> str:
         for i, s in enumerate(st.strokes):
             if s.kind != kind or not style.drawn(s):
                 continue
+            if not np.any(style.opacity(s, st.depth_range) > 0):
+                continue  # transparent everywhere (eq. 5.1 finds no depth step along it)
             groups.setdefault(int(s.object_id[0]), []).append(_path(i, s, drawing))
         if not groups:
             continue
@@ -157,25 +163,60 @@ def stroke_svg(drawing: StrokeDrawing, title: str | None = None) -> str:
 def _path(i: int, s: Stroke, drawing: StrokeDrawing) -> str:
     style, rng = drawing.style, drawing.strokes.depth_range
     widths = style.widths(s, rng)
-    alpha = float(np.mean(style.opacity(s, rng)))
+    opacity = style.opacity(s, rng)
     color = _hex(style.kind_color(s))
     dash = style.dashes(s)
     cls = "visible" if s.qi == 0 else "hidden"
     attrs = f'class="{cls}" data-stroke="{i}" data-qi="{s.qi}"'
     if s.through_glass:
         attrs += ' data-through-glass="true"'
-    if alpha < 1.0:
-        attrs += f' stroke-opacity="{alpha:.4g}" fill-opacity="{alpha:.4g}"'
+    if float(np.ptp(opacity)) > 1e-9:
+        return _runs(attrs, s, widths, opacity, color, dash)
+    if opacity[0] < 1.0:
+        attrs += f' stroke-opacity="{opacity[0]:.4g}" fill-opacity="{opacity[0]:.4g}"'
     constant = float(np.ptp(widths)) <= 1e-9 * max(1.0, float(widths.max()))
     if dash or constant:
-        extra = f' stroke-dasharray="{" ".join(_num(x) for x in dash)}"' if dash else ""
-        d = _ring(s.points, s.closed)
-        return (
-            f'      <path {attrs} stroke="{color}" stroke-width="{_num(float(np.mean(widths)))}"'
-            f'{extra} d="{d}"/>'
-        )
+        return f"      <path {attrs} {_stroked(s.points, s.closed, widths, color, dash)}/>"
     rule = ' fill-rule="evenodd"' if s.closed else ""
     return f'      <path {attrs} fill="{color}" stroke="none"{rule} d="{outline_path(s, widths)}"/>'
+
+
+def _stroked(
+    points: np.ndarray, closed: bool, widths: np.ndarray, color: str, dash: tuple[float, ...]
+) -> str:
+    extra = f' stroke-dasharray="{" ".join(_num(x) for x in dash)}"' if dash else ""
+    width = _num(float(np.mean(widths)))
+    return f'stroke="{color}" stroke-width="{width}"{extra} d="{_ring(points, closed)}"'
+
+
+def _runs(
+    attrs: str,
+    s: Stroke,
+    widths: np.ndarray,
+    opacity: np.ndarray,
+    color: str,
+    dash: tuple[float, ...],
+) -> str:
+    """A stroke whose opacity varies: a group of stroked paths, one per run of segments of
+    one opacity (the mean of the segment's ends, in steps of 1/32); transparent runs left
+    out."""
+    n = len(s)
+    ends = np.arange(n) if s.closed else np.arange(n - 1)
+    nxt = (ends + 1) % n
+    level = np.round(0.5 * (opacity[ends] + opacity[nxt]) * OPACITY_STEPS) / OPACITY_STEPS
+    out = [f"      <g {attrs}>"]
+    start = 0
+    for k in range(1, len(ends) + 1):
+        if k < len(ends) and level[k] == level[start]:
+            continue
+        if level[start] > 0:
+            idx = np.append(ends[start:k], nxt[k - 1])
+            a = f"{level[start]:.4g}"
+            body = _stroked(s.points[idx], False, widths[idx], color, dash)
+            out.append(f'        <path stroke-opacity="{a}" {body}/>')
+        start = k
+    out.append("      </g>")
+    return "\n".join(out)
 
 
 #: Characters XML 1.0 cannot hold, not even escaped (object names come from scene files).

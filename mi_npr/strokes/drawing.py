@@ -25,6 +25,8 @@ from .style import STYLES, Style, dash_pattern, style_of
 
 #: Most surfaces a visibility ray counts.
 MAX_QI = 64
+#: The longest segment of a stroke whose opacity varies along it (eq. 5.1), in pixels.
+GRAY_SPACING = 2.0
 
 
 def _dash(v: Any) -> str | None:
@@ -100,12 +102,13 @@ def draw_strokes(
         max_qi=params["max_qi"],
         depth_range=depth_range,
         params={k: params[k] for k in kept},
+        resample=GRAY_SPACING if style.gray else None,
     )
     alpha, ink = rasterize(strokes, style)
     return StrokeDrawing(strokes, style, alpha, ink)
 
 
-def frame_depth_range(z: np.ndarray) -> tuple[float, float] | None:
+def depth_range_of(z: np.ndarray) -> tuple[float, float] | None:
     """The nearest and farthest finite depth of a ``Z`` layer (``None`` if it has none)."""
     finite = np.asarray(z)[np.isfinite(z)]
     return (float(finite.min()), float(finite.max())) if finite.size else None

@@ -10,8 +10,10 @@
    between two samples (an occluder thinner than ``SPACING`` px) is missed.
 3. **Chaining** of the pieces (:mod:`mi_npr.strokes.chain`), per kind and visibility state.
 4. The outlines of the shapes that are not meshes (:mod:`mi_npr.strokes.outlines`).
-5. Per vertex, the depth seen one pixel to either side across the stroke (``depth_behind``,
-   the farther of the two; eq. 5.1's neighbour for the ``thesis`` style).
+5. Optionally (``resample``) more vertices along long segments, then per vertex the depth
+   seen one pixel to either side across the stroke (``depth_behind``, the farther of the two;
+   eq. 5.1's neighbour for the ``thesis`` style: with vertices only at the corners, a crease
+   ending on a silhouette would read the background beside both of its ends).
 
 Per-vertex attributes of a chained mesh stroke: the film position and depth of the vertex's
 projection, its world position, and the object and primitive of the edge that *leaves* the
@@ -27,6 +29,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..gbuffer import Camera
+from ..raycast import cast, film_grid, pixel_rays
 from ..scene import ObjectTable, object_table
 from .chain import chain_pieces
 from .edges import FeatureEdges, Projector, feature_edges
@@ -196,6 +199,50 @@ def _mesh_strokes(pieces: _Pieces, chain_angle: float) -> list[Stroke]:
     return out
 
 
+def cast_depth_range(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable) -> tuple[float, float]:
+    """The nearest and farthest finite depth of the pixel-centre hits: the range of the
+    G-buffer's ``Z`` layer, cast here when no G-buffer is given ((0, 1) if nothing is hit)."""
+    w, h = (int(v) for v in sensor.film().crop_size())
+    x, y = film_grid(w, h)
+    hits = cast(scene, pixel_rays(sensor, x, y), table, detail="minimal")
+    z = np.asarray(hits.depth(sensor).numpy())
+    z = z[np.isfinite(z)]
+    return (float(z.min()), float(z.max())) if z.size else (0.0, 1.0)
+
+
+def resampled(stroke: Stroke, spacing: float) -> Stroke:
+    """``stroke`` with vertices added so that none of its segments is longer than ``spacing``
+    px on the film: film positions evenly along each segment, world positions and depths
+    perspective-correct (exact on a straight 3-D segment), object and primitive those of the
+    segment's first vertex."""
+    p = stroke.points
+    n = len(p)
+    if n < 2:
+        return stroke
+    ends = np.arange(n) if stroke.closed else np.arange(n - 1)
+    nxt = (ends + 1) % n
+    seg = np.hypot(*(p[nxt] - p[ends]).T)
+    k = np.maximum(1, np.ceil(seg / spacing).astype(np.int64))
+    owner = np.repeat(ends, k)
+    u = (np.arange(len(owner)) - np.repeat(np.cumsum(k) - k, k)) / k[owner]
+    a, b = owner, nxt[owner]
+    s3 = _film_param_to_3d(u, stroke.depth[a], stroke.depth[b])
+    if not stroke.closed:  # the last vertex
+        a, b = np.append(a, n - 1), np.append(b, n - 1)
+        u, s3 = np.append(u, 0.0), np.append(s3, 0.0)
+    return Stroke(
+        kind=stroke.kind,
+        points=p[a] + u[:, None] * (p[b] - p[a]),
+        position=stroke.position[a] + s3[:, None] * (stroke.position[b] - stroke.position[a]),
+        depth=1.0 / ((1.0 - u) / stroke.depth[a] + u / stroke.depth[b]),
+        object_id=stroke.object_id[a],
+        prim=stroke.prim[a],
+        qi=stroke.qi,
+        through_glass=stroke.through_glass,
+        closed=stroke.closed,
+    )
+
+
 def _add_depth_behind(
     scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, strokes: list[Stroke], camera: Camera
 ) -> None:
@@ -223,10 +270,13 @@ def extract_strokes(
     depth_range: tuple[float, float] | None = None,
     objects: Mapping[int, str] | None = None,
     params: Mapping[str, Any] | None = None,
+    resample: float | None = None,
 ) -> Strokes:
     """Every stroke of ``scene`` seen by ``sensor`` (module docstring). ``table``: the scene's
     object table (built if not given); ``depth_range``: the frame's nearest and farthest finite
-    depth (default: the strokes' own)."""
+    depth (default: :func:`cast_depth_range`); ``resample``: the longest segment on the film, in
+    pixels (:func:`resampled`; ``None``: vertices only where the geometry turns), so that
+    per-vertex attributes such as ``depth_behind`` are sampled along straight edges too."""
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
     camera = proj.camera
@@ -234,11 +284,11 @@ def extract_strokes(
     strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)
     strokes += outline_strokes(scene, sensor, table, camera)
     strokes = [s for s in strokes if len(s) >= 2]
+    if resample:
+        strokes = [resampled(s, resample) for s in strokes]
     _add_depth_behind(scene, sensor, table, strokes, camera)
     if depth_range is None:
-        depths = np.concatenate([s.depth for s in strokes]) if strokes else np.zeros(0)
-        depths = depths[np.isfinite(depths)]
-        depth_range = (float(depths.min()), float(depths.max())) if len(depths) else (0.0, 1.0)
+        depth_range = cast_depth_range(scene, sensor, table)
     order = {k: i for i, k in enumerate(KINDS)}
     strokes.sort(key=lambda s: (order[s.kind], s.qi, s.through_glass))
     return Strokes(
