@@ -22,6 +22,10 @@ it. Building it costs ``O(F log F)`` for ``F`` triangles.
    180, a cube's edges 90; 0 turns creases off); also every edge of three or more faces (a
    non-manifold fold that no dihedral angle describes).
 
+5. ``intersection``: where triangles of two different meshes cut each other
+   (:mod:`mi_npr.strokes.intersect`); these edges are not mesh edges: their ends are nodes of
+   their own, welded among themselves.
+
 Other edges (smooth, coplanar) are not drawn. Each edge is drawn with one face, the one that
 *faces the camera more* (the smaller ``n . (a - o) / (|n| |a - o|)``; for a silhouette, the
 front face; for a border, its face): that face's object and primitive index are the edge's.
@@ -44,6 +48,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..projection import world_to_ndc
 from ..scene import ObjectTable, camera_of
+from .intersect import intersections
 from .model import KINDS
 
 #: Welding distance, relative to the diagonal of all meshes' bounding box.
@@ -139,9 +144,10 @@ def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
 
 
 def feature_edges(
-    table: ObjectTable, origin: np.ndarray, crease_angle: float = 134.0
+    table: ObjectTable, origin: np.ndarray, crease_angle: float = 134.0, intersect: bool = True
 ) -> FeatureEdges:
-    """The feature edges of every mesh in ``table`` seen from ``origin`` (module docstring)."""
+    """The feature edges of every mesh in ``table`` seen from ``origin`` (module docstring),
+    with the ``intersection`` lines between different meshes when ``intersect``."""
     v, f, face_oid, face_prim = mesh_arrays(table)
     if len(f) == 0:
         return FeatureEdges.empty()
@@ -205,7 +211,7 @@ def feature_edges(
     faces[:, 0, 0], faces[:, 0, 1] = o0, face_prim[f0]
     faces[:, 1, 0] = np.where(two, o1, 0)
     faces[:, 1, 1] = np.where(two, face_prim[f1], 0)
-    return FeatureEdges(
+    mesh = FeatureEdges(
         a=a[keep],
         b=b[keep],
         va=keys[keep, 0],
@@ -214,6 +220,58 @@ def feature_edges(
         object_id=face_oid[face[keep]].astype(np.uint32),
         prim=face_prim[face[keep]].astype(np.uint32),
         faces=faces[keep],
+    )
+    if not intersect:
+        return mesh
+    return _concat(mesh, _intersection_edges(v, f, face_oid, face_prim, nrm, origin, size, wid))
+
+
+def _intersection_edges(
+    v: np.ndarray,
+    f: np.ndarray,
+    face_oid: np.ndarray,
+    face_prim: np.ndarray,
+    nrm: np.ndarray,
+    origin: np.ndarray,
+    size: float,
+    wid: np.ndarray,
+) -> FeatureEdges:
+    """The ``intersection`` edges (:mod:`mi_npr.strokes.intersect`), their ends welded into
+    nodes numbered after the mesh vertices'."""
+    p, q, fa, fb = intersections(v, f, face_oid)
+    if not len(p):
+        return FeatureEdges.empty()
+    node = weld(np.concatenate([p, q]), WELD * size) + int(wid.max()) + 1
+    va, vb = node[: len(p)], node[len(p) :]
+    keep = va != vb
+    p, q, fa, fb, va, vb = p[keep], q[keep], fa[keep], fb[keep], va[keep], vb[keep]
+    view = p - np.asarray(origin, np.float64).reshape(1, 3)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        facing = [
+            np.nan_to_num(
+                np.einsum("ij,ij->i", nrm[g], view) / np.linalg.norm(nrm[g], axis=1), nan=0.0
+            )
+            for g in (fa, fb)
+        ]
+    face = np.where(facing[1] < facing[0], fb, fa)
+    faces = np.stack(
+        [np.stack([face_oid[fa], face_prim[fa]], 1), np.stack([face_oid[fb], face_prim[fb]], 1)], 1
+    )
+    return FeatureEdges(
+        a=p,
+        b=q,
+        va=va,
+        vb=vb,
+        kind=np.full(len(p), KINDS.index("intersection"), np.int64),
+        object_id=face_oid[face].astype(np.uint32),
+        prim=face_prim[face].astype(np.uint32),
+        faces=faces.astype(np.int64),
+    )
+
+
+def _concat(x: FeatureEdges, y: FeatureEdges) -> FeatureEdges:
+    return FeatureEdges(
+        *(np.concatenate([getattr(x, k), getattr(y, k)]) for k in x.__dataclass_fields__)
     )
 
 
