@@ -171,3 +171,25 @@ def test05_mesh_edges_behind_glass_keep_their_qi(tmp_path):
     assert sorted(map(key, a)) == sorted(map(key, b))  # same strokes, same QI
     assert all(s.through_glass for s in b)
     assert sorted(s.qi for s in b) == [0] * (len(b) - 3) + [1, 1, 1]
+
+
+def test06_visibility_rays_reuse_their_compiled_kernel(tmp_path):
+    """The QI loop is fed from numpy arrays; Dr.Jit compiles a different kernel for an
+    unaligned buffer, so without aligned copies most calls compiled anew."""
+    import drjit as dr
+
+    from mi_npr.scene import object_table
+    from mi_npr.strokes.visibility import quantitative_invisibility
+
+    scene = load(tmp_path, BOX)
+    table = object_table(scene)
+    rng = np.random.default_rng(3)
+    origin, ahead = np.array([0.3, 0.8, -0.5]), np.array([0.0, 0.0, 4.0])
+    quantitative_invisibility(scene, table, origin, rng.random((301, 3)) + ahead)
+    dr.sync_thread()
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        for n in (257, 1000, 333):  # sizes whose numpy buffers land anywhere
+            quantitative_invisibility(scene, table, origin, rng.random((n, 3)) + ahead)
+        dr.sync_thread()
+        history = [k for k in dr.kernel_history() if k["type"] == dr.KernelType.JIT]
+    assert history and all(k["cache_hit"] for k in history)

@@ -170,3 +170,11 @@ def test06_a_bad_xml_value_names_the_parameter(tmp_path):
     )
     with pytest.raises(Exception, match="parameter 'style'"):
         mi_npr.load_scene(path)
+
+
+def test07_docstring_examples_run():
+    import doctest
+
+    import mi_npr.strokes
+
+    assert doctest.testmod(mi_npr.strokes, optionflags=0).failed == 0
