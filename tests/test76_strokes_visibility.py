@@ -193,3 +193,34 @@ def test06_visibility_rays_reuse_their_compiled_kernel(tmp_path):
         dr.sync_thread()
         history = [k for k in dr.kernel_history() if k["type"] == dr.KernelType.JIT]
     assert history and all(k["cache_hit"] for k in history)
+
+
+def test07_a_sphere_in_front_of_another_owns_their_shared_outline(tmp_path):
+    near_c, near_r = np.array([0.3, 0.1, 5.0]), 0.8
+    far_c, far_r = np.array([-0.6, -0.2, 7.0]), 1.2
+    scene = load(
+        tmp_path,
+        "".join(
+            f'<shape type="sphere" id="{n}"><point name="center" value="{c[0]}, {c[1]}, {c[2]}"/>'
+            f'<float name="radius" value="{r}"/></shape>'
+            for n, c, r in (("near", near_c, near_r), ("far", far_c, far_r))
+        ),
+    )
+    st = extract_strokes(scene, scene.sensors()[0])
+    near = [s for s in st if st.name_of(s.object_id[0]) == "near"]
+    far = [s for s in st if st.name_of(s.object_id[0]) == "far"]
+    assert [(s.kind, s.closed, s.through_glass) for s in near] == [("silhouette", True, False)]
+    assert [(s.kind, s.closed, s.through_glass) for s in far] == [("silhouette", False, False)]
+    rings = {}
+    for name, c, r in (("near", near_c, near_r), ("far", far_c, far_r)):
+        ref = sphere_outline(c, r)
+        rings[name] = np.concatenate([ref, ref[:1]])
+    for s, name in ((near[0], "near"), (far[0], "far")):
+        err = seg_distance(s.points, rings[name][:-1], rings[name][1:]).max()
+        assert err < 0.05, (name, err)
+    # the far outline stops where the near sphere covers it: its ends lie on the near outline
+    ends = far[0].points[[0, -1]]
+    assert seg_distance(ends, rings["near"][:-1], rings["near"][1:]).max() < 0.5
+    # and none of the far stroke runs along the near outline
+    inside = seg_distance(far[0].points, rings["near"][:-1], rings["near"][1:]) < 0.25
+    assert inside.sum() <= 2

@@ -16,13 +16,14 @@ vertex per crack bisected along the crack with ``ITERATIONS`` extra rays: within
 ``2**-14`` px of the outline), with no simplification there. Each vertex is then *probed*: two
 rays at ``PROBE`` px on either side of the outline, across its local tangent. The side that sees
 the object ``k`` is the inside; its hit gives the vertex's 3-D position, depth and primitive.
-A vertex is on ``k``'s own outline (and kept) when
-
-- the inside surface is seen edge-on there, ``|n . d| < GRAZING`` (``n`` its normal, ``d`` the
-  ray): a **silhouette** (a sphere's limb; at ``PROBE`` px inside the limb of a sphere of
-  radius ``R`` px, ``|n . d|`` is about ``sqrt(2 PROBE / R)``, 0.014 for ``R = 20``); or
-- else the outside sees nothing or a surface farther than the inside one (by more than 0.1 %):
-  a **border** (the rim of a disk, of an open cylinder).
+A vertex is on ``k``'s own outline (and kept) when the outside sees nothing or a surface
+farther than the inside one (by more than 0.1 %); it is a **silhouette** where the inside
+surface is seen edge-on, ``|n . d| < GRAZING`` (``n`` its normal, ``d`` the ray; a sphere's
+limb: at ``PROBE`` px inside the limb of a sphere of radius ``R`` px, ``|n . d|`` is about
+``sqrt(2 PROBE / R)``, 0.014 for ``R = 20``), else a **border** (the rim of a disk, of an
+open cylinder). Being seen edge-on is not enough to keep a vertex: where an outline meets a
+nearer object's, the vertices within a pixel of the meeting point lie near the limb but on
+the nearer object's outline.
 
 Otherwise the object is cut by something in front (its outline there is the other object's) or
 meets another object at equal depth (an intersection, not drawn for these shapes yet). Runs of
@@ -90,7 +91,7 @@ def probe(
         "position": np.where(hit_np[:, None], p, 0.0),
         "depth": depth,
         "cos": np.where(hit_np, np.asarray(cos.numpy(), np.float64), 1.0),
-        "glass": np.asarray(glass.numpy(), bool),
+        "glass": np.broadcast_to(np.asarray(glass.numpy(), bool), hit_np.shape).copy(),
     }
 
 
@@ -192,7 +193,7 @@ def _path_strokes(path: VectorPath, a: dict, b: dict) -> list[Stroke]:
     outside = {key: np.where(_col(in_a, a[key]), b[key], a[key]) for key in a}
     grazing = inside["cos"] < GRAZING
     farther = ~outside["hit"] | (outside["depth"] > inside["depth"] * (1.0 + 1e-3))
-    keep = ok & (grazing | farther)
+    keep = ok & farther
     # state of each vertex: -1 dropped, else kind (0 silhouette, 1 border) + 2 * glass
     state = np.where(keep, np.where(grazing, 0, 1) + 2 * inside["glass"].astype(int), -1)
     n = len(state)

@@ -152,7 +152,7 @@ def first_opaque_hit(
     hit and whether glass was passed on the way."""
     d, o = ray.d, ray.o
     si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=False)
-    glass = mi.Bool(False)
+    glass = dr.zeros(mi.Bool, dr.width(si.t))
     hit = si.is_valid()
     is_glass, invisible = _surface(si, hit)
     passing = is_glass | invisible
