@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -216,8 +216,6 @@ def _normalised(z: np.ndarray, depth_range: tuple[float, float]) -> np.ndarray:
     return np.where(np.isfinite(z), np.clip(np.nan_to_num(d, nan=1.0), 0.0, 1.0), 1.0)
 
 
-_INK = (0.0, 0.0, 0.0)
-
 #: The presets (module docstring).
 STYLES: dict[str, dict[str, Any]] = {
     "technical": {},
@@ -258,9 +256,3 @@ def style_of(name: str, **overrides: Any) -> Style:
         raise ParameterError(f"style = {name!r}: expected one of {', '.join(STYLES)}")
     given = {k: v for k, v in overrides.items() if v is not None}
     return make_style(name, **{**STYLES[name], **given})
-
-
-def restyled(style: Style, **overrides: Any) -> Style:
-    """``style`` with some fields replaced (checked like :func:`make_style`)."""
-    checked = make_style(style.name, **overrides)
-    return replace(style, **{k: getattr(checked, k) for k in overrides})
