@@ -23,10 +23,12 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from . import cryptomatte
 from . import layers as L
 from .antialias import aa_factor, antialiased_lines, check_aa_width
-from .compose import with_overlay
+from .compose import raw_beauty, with_overlay
 from .contours.idmode import ID_MODES, OBJECT_MODES, IdMap, id_map
 from .contours.overlay import overlay as contour_overlay
 from .contours.trace import METHODS
@@ -42,6 +44,8 @@ from .raytree.lights import HARD, check_shadow_lights
 from .raytree.render import add_raytree
 from .raytree.tracer import MAX_DEPTH
 from .session import SceneSession
+from .strokes.drawing import STROKES_PARAMS, depth_range_of, draw_strokes
+from .strokes.raster import on_background
 
 #: How a drawing meets the beauty (module docstring).
 OVERLAYS = ("beauty", "picture", "none")
@@ -246,6 +250,31 @@ def _draw_raytree(session: SceneSession, gb: GBuffer, p: Mapping[str, Any], **_:
     return Drawn(drawn)
 
 
+# --------------------------------------------------------------------------------- strokes
+
+
+def _draw_strokes(session: SceneSession, gb: GBuffer, p: Mapping[str, Any], **_: Any) -> Drawn:
+    """Chained, typed vector strokes with exact visibility (:mod:`mi_npr.strokes`), styled:
+    the ``strokes.V`` coverage, the strokes over the raw beauty as the picture, and the
+    strokes themselves (``vector_strokes``) for the SVG and JSON writers."""
+    z = gb.numpy(L.Z) if L.Z in gb else None
+    done = draw_strokes(
+        session.scene,
+        session.sensor,
+        session.objects,
+        p,
+        depth_range=depth_range_of(z) if z is not None else None,
+    )
+    raw = raw_beauty(gb)
+    picture = on_background(done.alpha, done.ink, raw)
+    layers = {L.STROKES: done.alpha}
+    layers.update({c: np.ascontiguousarray(raw[..., i]) for i, c in enumerate(L.RAW_RGB)})
+    layers.update({c: np.ascontiguousarray(picture[..., i]) for i, c in enumerate(L.RGB)})
+    meta = json.dumps({k: v for k, v in p.items() if v is not None})
+    out = gb.with_layers(layers).with_metadata(**{"mi_npr/strokes": meta})
+    return Drawn(out, {"vector_strokes": done})
+
+
 # ----------------------------------------------------------------------------- cryptomatte
 
 
@@ -293,6 +322,13 @@ DRAWINGS: dict[str, Drawing] = {
             "ray-tree edges: real contour, reflection, refraction, shadow",
             RAYTREE_TABLE,
             _draw_raytree,
+        ),
+        Drawing(
+            "strokes",
+            "npr_strokes",
+            "chained, typed vector strokes with exact hidden lines, styled (SVG, JSON)",
+            STROKES_PARAMS,
+            _draw_strokes,
         ),
         Drawing(
             "cryptomatte",

@@ -49,6 +49,8 @@ OBJECT_ID = "object_id.V"
 PRIM_ID = "prim_id.V"
 
 LINES = "lines.V"
+#: Coverage of the styled vector strokes (mi_npr.strokes).
+STROKES = "strokes.V"
 CONTOUR = "contour.V"
 EDGES_REAL = "edges_real.V"
 EDGES_REFLECTION = "edges_reflection.V"
@@ -91,6 +93,7 @@ SPECS: dict[str, LayerSpec] = {
         LayerSpec(OBJECT_ID, _u32, "object id: 0 = background, 1..N = the object table's shapes"),
         LayerSpec(PRIM_ID, _u32, "primitive (triangle) index within its shape; 0 on background"),
         LayerSpec(LINES, _f32, "gray-level line image in [0, 1] (depth contours and edges)"),
+        LayerSpec(STROKES, _f32, "coverage in [0, 1] of the styled vector strokes"),
         LayerSpec(RAW_RGB[0], _f32, "beauty red before lines or overlays were composited"),
         LayerSpec(RAW_RGB[1], _f32, "beauty green before lines or overlays were composited"),
         LayerSpec(RAW_RGB[2], _f32, "beauty blue before lines or overlays were composited"),

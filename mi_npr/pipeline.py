@@ -86,6 +86,9 @@ class LayeredRender:
     paths: list[VectorPath] = field(default_factory=list)
     #: The line drawings as SVG stroke layers (:func:`mi_npr.contours.stroke_layers`).
     strokes: dict = field(default_factory=dict)
+    #: The ``strokes`` drawing: its vector strokes, style and raster
+    #: (:class:`mi_npr.strokes.drawing.StrokeDrawing`), written as ``<stem>_strokes.*``.
+    vector_strokes: Any = None
 
     def drawing(self, name: str) -> GBuffer:
         """The G-buffer with ``R G B`` = the picture of drawing ``name`` (``contours``,
@@ -164,6 +167,7 @@ def render_layers(
         meta.update(g.metadata)
         out.contours = drawn.extras.get("contours", out.contours)
         out.paths = drawn.extras.get("paths", out.paths)
+        out.vector_strokes = drawn.extras.get("vector_strokes", out.vector_strokes)
     plugins = [DRAWINGS[name].plugin for name in on if DRAWINGS[name].plugin]
     if plugins:
         meta["mi_npr/integrator"] = "+".join(plugins)

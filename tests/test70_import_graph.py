@@ -28,6 +28,7 @@ ALGORITHMS = (
     "mi_npr.viewpoint",
     "mi_npr.foliage",
     "mi_npr.camera",
+    "mi_npr.strokes",
 )
 LATER = ("mi_npr.drawings", "mi_npr.pipeline", "mi_npr.batch", "mi_npr.paths", "mi_npr.cli")
 

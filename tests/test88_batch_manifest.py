@@ -160,7 +160,7 @@ def test06_cli_exit_codes_and_errors(write_scene, tmp_path, capsys):
         (
             ["--crease-angle", "30"],
             1,
-            "--crease-angle: no drawing of this batch takes it (add --lines)",
+            "--crease-angle: no drawing of this batch takes it (add --lines or --strokes)",
         ),
     ]:
         with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):

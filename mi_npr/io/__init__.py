@@ -14,6 +14,7 @@ from ..gbuffer import GBuffer
 from ._atomic import atomic_output, check_writable_dir, output_set
 from .exr import describe, read_exr, write_exr
 from .png import linear_to_srgb, to_rgb8, write_png
+from .strokes import stroke_files, write_strokes
 from .svg import SVG_IMAGE, svg_document, write_contour_outputs, write_svg
 from .text import write_text
 
@@ -57,7 +58,9 @@ def write_layered_outputs(
     - one picture per drawing: ``<stem>_lines.png`` (the lines alone, ``line_color`` ink on
       ``paper``) with ``<stem>_lines.svg`` (its strokes), ``<stem>_contours.png`` with
       ``<stem>_contours.svg`` (vector contours on the true outline), ``<stem>_raytree.png``
-      with ``<stem>_raytree.svg`` (one Inkscape layer per edge class).
+      with ``<stem>_raytree.svg`` (one Inkscape layer per edge class), and for the ``strokes``
+      drawing ``<stem>_strokes.svg``, ``<stem>_strokes.json`` and ``<stem>_strokes.png``
+      (:mod:`mi_npr.io.strokes`).
 
     ``svg_image``: the raw beauty under the SVG drawings: ``embed`` (once), ``link`` (written
     as ``<stem>_beauty.png``) or ``none``. ``only="contours"`` (or ``"raytree"``) writes what
@@ -83,6 +86,9 @@ def write_layered_outputs(
         for name in ("contours", "raytree"):
             if name in result.pictures:
                 files.append((f"{stem}_{name}.png", result.pictures[name]))
+        drawing = getattr(result, "vector_strokes", None)
+        if drawing is not None:  # the strokes drawing: SVG, JSON and ink on paper
+            files += stroke_files(drawing, stem, gb.metadata.get("mi_npr/scene", stem))
     image: dict[str, Any] = {}
     svgs: list[tuple[str, str]] = []
     drawn = [n for n in ("lines", "contours", "raytree") if only in (None, n)]
@@ -128,6 +134,8 @@ def write_layered_outputs(
         for name, data in files:
             if name.endswith(".exr"):
                 out.append(write_exr(d / name, data))
+            elif isinstance(data, str):
+                out.append(write_text(d / name, data))
             else:
                 out.append(write_png(d / name, data))
         for name, text in svgs:
@@ -149,6 +157,7 @@ __all__ = [
     "write_layered_outputs",
     "write_outputs",
     "write_png",
+    "write_strokes",
     "write_svg",
     "write_text",
 ]

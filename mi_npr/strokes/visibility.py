@@ -1,0 +1,173 @@
+"""Exact visibility of 3-D points by ray casting against the scene itself.
+
+**Quantitative invisibility** (QI, Appel's): the number of surfaces the eye ray from the camera
+origin ``o`` to a point ``P`` crosses *strictly in front of* ``P``. A closed solid in front of
+``P`` counts twice (its near and its far side), a single sheet once; the back edges of a cube
+count 1 (only its front face lies in front of them). The ray continues past each hit
+(``si.spawn_ray``) until it reaches ``P`` or ``max_qi`` surfaces were counted (the count is
+capped there).
+
+**What does not count.**
+
+- Hits within ``EPSILON`` (relative to ``|P - o|``) in front of ``P``: ``P`` lies on its own
+  surfaces, and a surface that contains ``P`` (the floor under a box's bottom edge) does not hide
+  it.
+- Hits on the faces that own ``P`` (``own``: an edge's adjacent triangles, by object id and
+  primitive index): a plane through ``P`` meets the eye ray only at ``P``, so any such hit is
+  ``P`` itself, whatever the floating-point error at grazing angles.
+- **Glass**: a surface whose BSDF has ``DeltaTransmission`` (Mitsuba's ``dielectric``,
+  ``thindielectric``) is seen through: it sets ``through_glass`` instead of counting. Rays are
+  not bent: a point behind glass keeps its unrefracted position (exact for a thin pane,
+  approximate behind a thick or curved one).
+- A surface with the ``null`` BSDF (flags ``Null`` only) is invisible and passes.
+
+At most :data:`MAX_PASSES` glass or null surfaces are passed per ray (more read as opaque).
+"""
+
+from __future__ import annotations
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from ..scene import ObjectTable
+
+#: Hits this close in front of the point (relative to its distance) are the point itself.
+EPSILON = 1e-4
+#: Most glass or null surfaces one ray passes through.
+MAX_PASSES = 8
+
+
+def jit_array(kind: type, a: np.ndarray) -> object:
+    """A Dr.Jit array of ``kind`` (``mi.Float``, ``mi.UInt32``...) with the values of ``a``,
+    from a 64-byte aligned copy. Dr.Jit reads a numpy buffer in place, and compiles a kernel
+    that reads an unaligned buffer differently from one that reads an aligned one: a kernel fed
+    from numpy arrays of arbitrary alignment missed the kernel cache on most calls (a new
+    compilation, tens of ms, each time)."""
+    a = np.ascontiguousarray(a)
+    buf = np.empty(a.nbytes + 64, np.uint8)
+    off = -buf.ctypes.data % 64
+    out = buf[off : off + a.nbytes].view(a.dtype).reshape(a.shape)
+    out[...] = a
+    return kind(out)
+
+
+def _vec(a: np.ndarray, kind: type) -> object:
+    a = np.asarray(a, np.float64).reshape(-1, 3).astype(np.float32)
+    return kind(*(jit_array(mi.Float, a[:, k]) for k in range(3)))
+
+
+def _bounded(o: mi.Point3f, d: mi.Vector3f, maxt: mi.Float) -> mi.Ray3f:
+    """The ray ``o + t d``, ``t < maxt`` (``mi.Ray3f(o, d, x)`` would read ``x`` as the time)."""
+    ray = mi.Ray3f(o, d)
+    ray.maxt = maxt
+    return ray
+
+
+def _surface(si: mi.SurfaceInteraction3f, hit: mi.Bool) -> tuple[mi.Bool, mi.Bool]:
+    """``(glass, invisible)`` of each hit: a delta transmission (seen through) or a ``null``
+    BSDF (not seen at all)."""
+    flags = si.bsdf().flags()
+    glass = hit & mi.has_flag(flags, mi.BSDFFlags.DeltaTransmission)
+    invisible = hit & (flags == mi.UInt32(int(mi.BSDFFlags.Null)))
+    return glass, invisible
+
+
+def quantitative_invisibility(
+    scene: mi.Scene,
+    table: ObjectTable,
+    origin: np.ndarray,
+    points: np.ndarray,
+    own: np.ndarray | None = None,
+    max_qi: int = 8,
+) -> tuple[np.ndarray, np.ndarray]:
+    """QI (N,) int32 and ``through_glass`` (N,) bool of world ``points`` (N, 3) seen from
+    ``origin`` (module docstring). ``own`` (N, 2, 2): ``(object id, prim)`` of up to two faces
+    each point lies on (object id 0: none)."""
+    n = len(points)
+    if n == 0:
+        return np.zeros(0, np.int32), np.zeros(0, bool)
+    # every input computed in numpy and passed as an evaluated array: the loop's kernel is then
+    # the same from call to call (Dr.Jit's cache hits it) instead of fused with its inputs
+    p = np.asarray(points, np.float64).reshape(-1, 3)
+    o = np.broadcast_to(np.asarray(origin, np.float64).reshape(1, 3), (n, 3))
+    d = p - o
+    dist = np.linalg.norm(d, axis=1)
+    d = d / np.where(dist > 0, dist, 1.0)[:, None]
+    P = _vec(p, mi.Point3f)
+    D = _vec(d, mi.Vector3f)
+    guard_np = dist * EPSILON
+    guard = jit_array(mi.Float, guard_np.astype(np.float32))
+    if own is None:
+        own = np.zeros((n, 2, 2), np.int64)
+    own = np.asarray(own, np.int64)
+    own_o = [jit_array(mi.UInt32, own[:, k, 0].astype(np.uint32)) for k in range(2)]
+    own_p = [jit_array(mi.UInt32, own[:, k, 1].astype(np.uint32)) for k in range(2)]
+    qi = dr.zeros(mi.UInt32, n)
+    glass = dr.zeros(mi.Bool, n)
+    active = jit_array(mi.Bool, dist > guard_np)
+    ray_o = _vec(o, mi.Point3f)
+    maxt = jit_array(mi.Float, (dist - guard_np).astype(np.float32))
+    steps = dr.zeros(mi.UInt32, n)
+    dr.make_opaque(qi, glass, steps)
+    limit = max_qi + MAX_PASSES
+    d = D
+
+    def cond(ray_o, maxt, qi, glass, active, steps):
+        return active
+
+    def body(ray_o, maxt, qi, glass, active, steps):
+        si = scene.ray_intersect(
+            _bounded(ray_o, d, maxt), ray_flags=mi.RayFlags.Minimal, coherent=False
+        )
+        hit = si.is_valid()
+        oid = table.lookup(si)
+        mine = ((oid == own_o[0]) & (si.prim_index == own_p[0])) | (
+            (oid == own_o[1]) & (si.prim_index == own_p[1])
+        )
+        is_glass, invisible = _surface(si, hit)
+        qi += dr.select(hit & ~is_glass & ~invisible & ~mine, 1, 0)
+        glass |= is_glass & ~mine
+        steps += 1
+        ray_o = si.spawn_ray(d).o
+        maxt = dr.dot(P - ray_o, d) - guard
+        active = hit & (qi < max_qi) & (steps < limit) & (maxt > 0)
+        return ray_o, maxt, qi, glass, active, steps
+
+    _, _, qi, glass, _, _ = dr.while_loop(
+        (ray_o, maxt, qi, glass, active, steps),
+        cond,
+        body,
+        labels=("o", "maxt", "qi", "glass", "active", "steps"),
+    )
+    dr.eval(qi, glass)
+    return np.asarray(qi.numpy(), np.int32), np.asarray(glass.numpy(), bool)
+
+
+def first_opaque_hit(
+    scene: mi.Scene, table: ObjectTable, ray: mi.Ray3f
+) -> tuple[mi.SurfaceInteraction3f, mi.UInt32, mi.Bool, mi.Bool]:
+    """The first surface along each ray that is neither glass nor ``null`` (module docstring):
+    its surface interaction (``t`` from the ray's origin), object id (0: none), whether it was
+    hit and whether glass was passed on the way."""
+    d, o = ray.d, ray.o
+    si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=False)
+    glass = dr.zeros(mi.Bool, dr.width(si.t))
+    hit = si.is_valid()
+    is_glass, invisible = _surface(si, hit)
+    passing = is_glass | invisible
+    for _ in range(MAX_PASSES):
+        if not dr.any(passing):
+            break
+        glass |= is_glass
+        again = scene.ray_intersect(
+            si.spawn_ray(d), ray_flags=mi.RayFlags.All, coherent=False, active=passing
+        )
+        si = dr.select(passing, again, si)
+        hit = dr.select(passing, again.is_valid(), hit)
+        is_glass, invisible = _surface(si, hit & passing)
+        passing = passing & hit & (is_glass | invisible)
+        dr.eval(si, hit, glass, passing)
+    si.t = dr.select(hit, dr.dot(si.p - o, d), dr.inf)
+    oid = dr.select(hit & ~passing, table.lookup(si), 0)
+    return si, oid, hit & ~passing, glass

@@ -1,0 +1,226 @@
+"""Visibility of strokes: T-junctions, glass, no stroke drawn twice.
+
+References: the projected outlines and corners of test75 (pinhole model and tangent cone
+written in the tests), and brute-force distances between sampled strokes.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from mi_npr.strokes import extract_strokes
+
+from .test75_strokes_closed_form import load, project, seg_distance, sphere_outline
+
+#: A wall far behind (a mesh rectangle, 2 x 2 scaled by 3) whose top border passes behind a
+#: cube and a sphere.
+WALL = (
+    '<shape type="rectangle" id="wall"><transform name="to_world">'
+    '<scale x="2.6" y="1.2"/><translate x="0" y="0.2" z="9"/></transform></shape>'
+)
+BOX = (
+    '<shape type="cube" id="box"><transform name="to_world"><rotate y="1" angle="30"/>'
+    '<rotate x="1" angle="25"/><scale value="0.45"/><translate x="-0.6" y="0.9" z="5"/>'
+    "</transform></shape>"
+)
+BALL_C, BALL_R = np.array([0.9, 1.0, 5.5]), 0.5
+BALL = (
+    f'<shape type="sphere" id="ball"><point name="center" value="{", ".join(map(str, BALL_C))}"'
+    f'/><float name="radius" value="{BALL_R}"/></shape>'
+)
+
+
+def _polylines(st, pred=lambda s: True):
+    return [
+        np.concatenate([s.points, s.points[:1]]) if s.closed else s.points for s in st if pred(s)
+    ]
+
+
+def _near(p: np.ndarray, lines: list[np.ndarray]) -> float:
+    """Distance of point p to the nearest polyline."""
+    return min(float(seg_distance(p[None], q[:-1], q[1:])[0]) for q in lines if len(q) > 1)
+
+
+def test01_t_junctions_end_the_strokes_behind(tmp_path):
+    scene = load(tmp_path, WALL + BOX + BALL)
+    st = extract_strokes(scene, scene.sensors()[0])
+    wall = [s for s in st if st.name_of(s.object_id[0]) == "wall"]
+    top_y = project(np.array([[0.0, 1.4, 9.0]]))[0, 1]
+    top = sorted(
+        (s for s in wall if np.allclose(s.points[:, 1], top_y, atol=0.5)),
+        key=lambda s: s.points[:, 0].min(),
+    )
+    # the wall's top border: hidden behind the box and the ball (qi 2: their near and far
+    # sides), visible between and around them
+    assert [s.qi for s in top] == [0, 2, 0, 2, 0], [(s.qi, s.points.tolist()) for s in top]
+    assert all(s.kind == "border" for s in top)
+    # every end where visibility changes lies on the occluder's outline
+    box_sil = _polylines(
+        st, lambda s: s.kind == "silhouette" and st.name_of(s.object_id[0]) == "box"
+    )
+    ball_ref = sphere_outline(BALL_C, BALL_R)
+    ball_ring = np.concatenate([ball_ref, ball_ref[:1]])
+    errors = []
+    for left, right in itertools.pairwise(top):
+        a = left.points[np.argmax(left.points[:, 0])]
+        b = right.points[np.argmin(right.points[:, 0])]
+        assert np.allclose(a, b)  # the pieces meet
+        on_ball = float(seg_distance(a[None], ball_ring[:-1], ball_ring[1:])[0])
+        errors.append(min(_near(a, box_sil), on_ball))
+    print(f"T-junction ends: max distance to the occluder's outline {max(errors):.2e} px")
+    assert max(errors) < 0.05
+    # the occluders' outlines run on through the junctions: one stroke each
+    assert (
+        len([s for s in st if s.kind == "silhouette" and st.name_of(s.object_id[0]) == "ball"]) == 1
+    )
+
+
+def test02_no_stroke_is_drawn_twice(tmp_path):
+    """Two strokes of one visibility state never run within 0.5 px of each other for more than
+    2 px (a hidden line may cross a visible one at a small angle: that is the view, not a
+    duplicate)."""
+    scene = load(tmp_path, WALL + BOX + BALL)
+    st = extract_strokes(scene, scene.sensors()[0])
+    lines = _polylines(st)
+    state = [(s.qi, s.through_glass) for s in st]
+    assert len(lines) >= 10
+    worst = 0.0
+    for i, a in enumerate(lines):
+        seg = np.hypot(*np.diff(a, axis=0).T)
+        samples = []
+        for k in range(len(a) - 1):  # every 0.1 px along stroke i
+            n = max(2, int(np.ceil(seg[k] / 0.1)) + 1)
+            t = np.linspace(0, 1, n)[:, None]
+            samples.append(a[k] + t * (a[k + 1] - a[k]))
+        pts = np.concatenate(samples)
+        step = np.hypot(*np.diff(pts, axis=0).T)
+        for j, b in enumerate(lines):
+            if i == j or len(b) < 2 or state[i] != state[j]:
+                continue
+            close = seg_distance(pts, b[:-1], b[1:]) < 0.5
+            # the longest run of samples within 0.5 px of stroke j, in pixels
+            run = best = 0.0
+            for k in range(1, len(pts)):
+                run = run + step[k - 1] if close[k] and close[k - 1] else 0.0
+                best = max(best, run)
+            worst = max(worst, best)
+    print(f"longest stretch of two strokes within 0.5 px: {worst:.2f} px")
+    assert worst <= 2.0
+
+
+GLASS = (
+    '<shape type="cube" id="pane"><transform name="to_world"><scale x="1.2" y="1.6" z="0.05"/>'
+    '<translate x="{x}" y="0" z="3"/></transform><bsdf type="dielectric"/></shape>'
+)
+
+
+def test03_a_sphere_behind_glass_keeps_its_strokes(tmp_path):
+    c, r = np.array([-0.3, 0.0, 6.5]), 0.9
+    ball = (
+        f'<shape type="sphere" id="ball"><point name="center" value="{c[0]}, {c[1]}, {c[2]}"/>'
+        f'<float name="radius" value="{r}"/></shape>'
+    )
+    scene = load(tmp_path, GLASS.format(x=-0.2) + ball)
+    st = extract_strokes(scene, scene.sensors()[0])
+    balls = [s for s in st if st.name_of(s.object_id[0]) == "ball"]
+    assert [(s.kind, s.closed, s.qi, s.through_glass) for s in balls] == [
+        ("silhouette", True, 0, True)
+    ]
+    ref = sphere_outline(c, r)
+    ring = np.concatenate([ref, ref[:1]])
+    err = seg_distance(balls[0].points, ring[:-1], ring[1:]).max()
+    print(f"sphere behind glass: max vertex error {err:.5f} px")
+    assert err < 0.05
+    # the pane's own edges: those of its front face seen directly, the others through it
+    pane = [s for s in st if st.name_of(s.object_id[0]) == "pane"]
+    assert pane and all(s.qi == 0 for s in pane)
+    assert {s.through_glass for s in pane} == {False, True}
+
+
+def test04_glass_over_half_a_sphere_splits_its_outline(tmp_path):
+    c, r = np.array([0.0, 0.0, 6.5]), 0.9
+    ball = (
+        f'<shape type="sphere" id="ball"><point name="center" value="{c[0]}, {c[1]}, {c[2]}"/>'
+        f'<float name="radius" value="{r}"/></shape>'
+    )
+    scene = load(tmp_path, GLASS.format(x=-1.2) + ball)  # the pane covers x < 0 only
+    st = extract_strokes(scene, scene.sensors()[0])
+    balls = [s for s in st if st.name_of(s.object_id[0]) == "ball"]
+    assert sorted(s.through_glass for s in balls) == [False, True]
+    assert all(not s.closed and s.qi == 0 for s in balls)
+    # the two pieces meet: they are one outline
+    a, b = balls
+    ends_a, ends_b = a.points[[0, -1]], b.points[[0, -1]]
+    gaps = np.hypot(*(ends_a[:, None] - ends_b[None]).transpose(2, 0, 1))
+    assert np.sort(gaps.min(1)).max() < 1.5
+
+
+def test05_mesh_edges_behind_glass_keep_their_qi(tmp_path):
+    box = (
+        '<shape type="cube" id="box"><transform name="to_world"><rotate y="1" angle="35"/>'
+        '<rotate x="1" angle="25"/><scale value="0.6"/><translate z="6"/></transform></shape>'
+    )
+    plain = load(tmp_path, box)
+    behind = load(tmp_path, GLASS.format(x=0.2) + box)
+    a = [s for s in extract_strokes(plain, plain.sensors()[0])]
+    st = extract_strokes(behind, behind.sensors()[0])
+    b = [s for s in st if st.name_of(s.object_id[0]) == "box"]
+    key = lambda s: (s.kind, s.qi, np.round(s.points, 3).tobytes())  # noqa: E731
+    assert sorted(map(key, a)) == sorted(map(key, b))  # same strokes, same QI
+    assert all(s.through_glass for s in b)
+    assert sorted(s.qi for s in b) == [0] * (len(b) - 3) + [1, 1, 1]
+
+
+def test06_visibility_rays_reuse_their_compiled_kernel(tmp_path):
+    """The QI loop is fed from numpy arrays; Dr.Jit compiles a different kernel for an
+    unaligned buffer, so without aligned copies most calls compiled anew."""
+    import drjit as dr
+
+    from mi_npr.scene import object_table
+    from mi_npr.strokes.visibility import quantitative_invisibility
+
+    scene = load(tmp_path, BOX)
+    table = object_table(scene)
+    rng = np.random.default_rng(3)
+    origin, ahead = np.array([0.3, 0.8, -0.5]), np.array([0.0, 0.0, 4.0])
+    quantitative_invisibility(scene, table, origin, rng.random((301, 3)) + ahead)
+    dr.sync_thread()
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        for n in (257, 1000, 333):  # sizes whose numpy buffers land anywhere
+            quantitative_invisibility(scene, table, origin, rng.random((n, 3)) + ahead)
+        dr.sync_thread()
+        history = [k for k in dr.kernel_history() if k["type"] == dr.KernelType.JIT]
+    assert history and all(k["cache_hit"] for k in history)
+
+
+def test07_a_sphere_in_front_of_another_owns_their_shared_outline(tmp_path):
+    near_c, near_r = np.array([0.3, 0.1, 5.0]), 0.8
+    far_c, far_r = np.array([-0.6, -0.2, 7.0]), 1.2
+    scene = load(
+        tmp_path,
+        "".join(
+            f'<shape type="sphere" id="{n}"><point name="center" value="{c[0]}, {c[1]}, {c[2]}"/>'
+            f'<float name="radius" value="{r}"/></shape>'
+            for n, c, r in (("near", near_c, near_r), ("far", far_c, far_r))
+        ),
+    )
+    st = extract_strokes(scene, scene.sensors()[0])
+    near = [s for s in st if st.name_of(s.object_id[0]) == "near"]
+    far = [s for s in st if st.name_of(s.object_id[0]) == "far"]
+    assert [(s.kind, s.closed, s.through_glass) for s in near] == [("silhouette", True, False)]
+    assert [(s.kind, s.closed, s.through_glass) for s in far] == [("silhouette", False, False)]
+    rings = {}
+    for name, c, r in (("near", near_c, near_r), ("far", far_c, far_r)):
+        ref = sphere_outline(c, r)
+        rings[name] = np.concatenate([ref, ref[:1]])
+    for s, name in ((near[0], "near"), (far[0], "far")):
+        err = seg_distance(s.points, rings[name][:-1], rings[name][1:]).max()
+        assert err < 0.05, (name, err)
+    # the far outline stops where the near sphere covers it: its ends lie on the near outline
+    ends = far[0].points[[0, -1]]
+    assert seg_distance(ends, rings["near"][:-1], rings["near"][1:]).max() < 0.5
+    # and none of the far stroke runs along the near outline
+    inside = seg_distance(far[0].points, rings["near"][:-1], rings["near"][1:]) < 0.25
+    assert inside.sum() <= 2

@@ -1,0 +1,74 @@
+"""Intersection lines between meshes, against a closed form: a box poking out of a cube's face
+cuts it along a square.
+
+Configuration (before a common rotation and translation): the cube ``[-1, 1]^3`` and the box
+``[0.5, 2] x [-0.5, 0.5] x [-0.5, 0.5]``; the box leaves the cube through its face ``x = 1``
+along the square ``x = 1, |y| = 0.5 or |z| = 0.5``, of perimeter 4. The square's corners are
+placed by Mitsuba's own transform and projected with test75's pinhole model.
+"""
+
+from __future__ import annotations
+
+import mitsuba as mi
+import numpy as np
+
+from mi_npr.strokes import extract_strokes
+from mi_npr.strokes.intersect import segments
+
+from .test75_strokes_closed_form import load, project, seg_distance
+
+COMMON = '<rotate y="1" angle="30"/><rotate x="1" angle="20"/><translate z="6"/>'
+BOXES = (
+    f'<shape type="cube" id="cube"><transform name="to_world">{COMMON}</transform></shape>'
+    '<shape type="cube" id="peg"><transform name="to_world"><scale x="0.75" y="0.5" z="0.5"/>'
+    f'<translate x="1.25"/>{COMMON}</transform></shape>'
+)
+
+
+def common() -> np.ndarray:
+    m = mi.ScalarTransform4f().translate([0, 0, 6]).rotate([1, 0, 0], 20).rotate([0, 1, 0], 30)
+    return np.asarray(m.matrix, np.float64)
+
+
+def test01_two_triangles_cut_along_the_closed_form_segment():
+    # the triangle in z = 0 and one standing across it: they meet on x = 0.25, y in [0, 0.5]
+    t1 = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]])
+    t2 = np.array([[[0.25, -1.0, -1.0], [0.25, 0.5, -1.0], [0.25, 0.5, 2.0]]])
+    ok, p, q = segments(t1, t2)
+    assert ok.tolist() == [True]
+    ends = sorted([tuple(np.round(p[0], 12)), tuple(np.round(q[0], 12))])
+    # t2 spans y <= 0.5 at z = 0 (its edge from (y=-1, z=-1) to (y=0.5, z=2) crosses z = 0 at
+    # y = 0); t1 spans y in [0, 0.75] at x = 0.25: the overlap is y in [0, 0.5]
+    np.testing.assert_allclose(ends, [(0.25, 0.0, 0.0), (0.25, 0.5, 0.0)], atol=1e-12)
+    # apart, parallel, coplanar or only touching with a vertex: nothing
+    touching = np.array([[[0.2, 0.2, 0.0], [0.2, 0.2, 1.0], [0.3, 0.2, 1.0]]])
+    up, shift = np.array([0.0, 0.0, 1.0]), np.array([0.1, 0.1, 0.0])
+    for other in (t2 + 5 * up, t1 + up, t1 + shift, touching):
+        assert not segments(t1, other)[0].any()
+
+
+def test02_a_box_poking_out_of_a_cube_cuts_a_square(tmp_path):
+    scene = load(tmp_path, BOXES)
+    st = extract_strokes(scene, scene.sensors()[0])
+    cut = st.of_kind("intersection")
+    assert cut
+    m = common()
+    local = np.array([[1, -0.5, -0.5], [1, 0.5, -0.5], [1, 0.5, 0.5], [1, -0.5, 0.5]], float)
+    square = local @ m[:3, :3].T + m[:3, 3]
+    px = project(square)
+    ring = np.concatenate([px, px[:1]])
+    # on the square in 3-D: back in the configuration's frame, x = 1 and on the square's rim
+    for s in cut:
+        back = (s.position - m[:3, 3]) @ m[:3, :3]  # m's rotation is orthonormal
+        np.testing.assert_allclose(back[:, 0], 1.0, atol=1e-5)
+        rim = np.maximum(np.abs(back[:, 1]), np.abs(back[:, 2]))
+        np.testing.assert_allclose(rim, 0.5, atol=1e-5)
+    # on the projected square, covering it once
+    err = max(seg_distance(s.points, ring[:-1], ring[1:]).max() for s in cut)
+    print(f"intersection: max distance to the projected square {err:.2e} px")
+    assert err < 0.05
+    total = sum(s.length() for s in cut)
+    perimeter = np.hypot(*np.diff(ring, axis=0).T).sum()
+    assert abs(total - perimeter) < 0.05
+    # the square's far side is behind the peg: some of it hidden, some visible
+    assert {s.qi > 0 for s in cut} == {False, True}
