@@ -45,9 +45,10 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..camera import projection_of
 from ..errors import ParameterError
 from ..projection import world_to_ndc
-from ..scene import ObjectTable, camera_of
+from ..scene import ObjectTable
 from .intersect import intersections
 from .model import KINDS
 
@@ -281,7 +282,7 @@ class Projector:
     axis (the ``Z`` layer's)."""
 
     def __init__(self, sensor: mi.Sensor) -> None:
-        cam = camera_of(sensor)
+        cam = projection_of(sensor)
         ndc = world_to_ndc(cam)
         if ndc is None:
             raise ParameterError(

@@ -28,7 +28,7 @@ from typing import Any
 import mitsuba as mi
 import numpy as np
 
-from ..gbuffer import Camera
+from ..gbuffer import Projection
 from ..raycast import cast, film_grid, pixel_rays
 from ..scene import ObjectTable, object_table
 from .chain import chain_pieces
@@ -244,7 +244,11 @@ def resampled(stroke: Stroke, spacing: float) -> Stroke:
 
 
 def _add_depth_behind(
-    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, strokes: list[Stroke], camera: Camera
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    table: ObjectTable,
+    strokes: list[Stroke],
+    camera: Projection,
 ) -> None:
     if not strokes:
         return

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..gbuffer import Camera
+from ..gbuffer import Projection
 
 #: Every edge kind, in drawing order (later kinds are drawn over earlier ones). ``reflection``,
 #: ``refraction`` and ``shadow`` are reserved for strokes of the ray trees (not produced yet).
@@ -91,7 +91,7 @@ class Strokes:
     height: int
     objects: Mapping[int, str] = field(default_factory=dict)
     depth_range: tuple[float, float] = (0.0, 1.0)
-    camera: Camera | None = None
+    camera: Projection | None = None
     #: The extraction's parameters (crease angle, chain angle, max_qi), for the files' headers.
     params: Mapping[str, Any] = field(default_factory=dict)
 

@@ -40,7 +40,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..contours.vector import VectorPath, douglas_peucker, vectorize
-from ..gbuffer import Camera
+from ..gbuffer import Projection
 from ..raycast import film_grid, pixel_rays
 from ..scene import ObjectTable
 from .model import Stroke
@@ -57,7 +57,7 @@ TOLERANCE = 0.02
 
 
 def probe(
-    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, xy: np.ndarray, camera: Camera
+    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, xy: np.ndarray, camera: Projection
 ) -> dict[str, np.ndarray]:
     """What the pixel ray through each film position ``xy`` (N, 2) sees first, through glass:
     ``hit``, ``object_id``, ``prim``, ``position`` (N, 3), ``depth`` (along ``camera``'s view axis
@@ -148,7 +148,7 @@ def outline_strokes(
     scene: mi.Scene,
     sensor: mi.Sensor,
     table: ObjectTable,
-    camera: Camera,
+    camera: Projection,
 ) -> list[Stroke]:
     """The outline strokes of every shape that is not a mesh (module docstring)."""
     lut = analytic_ids(table)
