@@ -56,6 +56,11 @@ MATERIAL = L.CRYPTO_MATERIAL
 DEFAULT_LEVELS = 6
 #: Dense accumulation holds (pixels x names) float64 weights; beyond this it is an error.
 _MAX_CELLS = 1 << 27
+#: Most samples cast at once for the coverage (about a million: some 100 MB of rays and hits).
+SAMPLES_PER_PASS = 1 << 20
+#: The seeds of the passes after the first, ``seed + p * step``: far apart, so two renders with
+#: nearby seeds share no pass.
+_PASS_SEED_STEP = 0x9E3779B1
 
 
 def murmurhash3_32(data: bytes | str, seed: int = 0) -> int:
@@ -166,17 +171,40 @@ def coverage(
     (0..n_ids). A sample adds ``f(x - cx) f(y - cy)`` (``rfilter.eval``, clamped at 0) to each
     pixel of centre ``(cx, cy)`` within the filter's radius.
     """
+    acc = dr.zeros(mi.Float, check_cells(width, height, n_ids))
+    _accumulate(acc, x, y, ids, n_ids, width, height, rfilter)
+    table = to_numpy(acc).astype(np.float64).reshape(width * height, n_ids + 1)
+    total = table.sum(axis=1, keepdims=True)
+    return np.divide(table, total, out=np.zeros_like(table), where=total > 0)
+
+
+def check_cells(width: int, height: int, n_ids: int) -> int:
+    """The cells of the coverage table of ``n_ids`` names at ``width x height``, or a
+    :class:`ParameterError` when they are too many (checked before a render starts)."""
     cells = width * height * (n_ids + 1)
     if cells > _MAX_CELLS:
         raise ParameterError(
             f"cryptomatte: {width}x{height} pixels x {n_ids + 1} names is too many to rank "
             f"({cells} cells, at most {_MAX_CELLS})"
         )
+    return cells
+
+
+def _accumulate(
+    acc: Any,
+    x: Any,
+    y: Any,
+    ids: Any,
+    n_ids: int,
+    width: int,
+    height: int,
+    rfilter: mi.ReconstructionFilter,
+) -> None:
+    """Add the filter weights of samples ``(x, y, ids)`` to the coverage table ``acc``."""
     x, y, ids = mi.Float(x), mi.Float(y), mi.UInt32(ids)
     radius = float(rfilter.radius())
     reach = max(0, math.ceil(radius - 0.5))  # pixels a sample reaches on each side
     px, py = mi.Int32(dr.floor(x)), mi.Int32(dr.floor(y))
-    acc = dr.zeros(mi.Float, cells)
 
     def weight(d: Any) -> Any:
         return dr.select(dr.abs(d) < radius, dr.maximum(rfilter.eval(d), 0.0), 0.0)
@@ -194,9 +222,6 @@ def coverage(
             key = (mi.UInt32(qy) * width + mi.UInt32(qx)) * (n_ids + 1) + ids
             dr.scatter_reduce(dr.ReduceOp.Add, acc, wgt, key, ok)
             dr.eval(acc)
-    table = to_numpy(acc).astype(np.float64).reshape(width * height, n_ids + 1)
-    total = table.sum(axis=1, keepdims=True)
-    return np.divide(table, total, out=np.zeros_like(table), where=total > 0)
 
 
 def ranked_layers(
@@ -246,9 +271,21 @@ def cryptomatte(
     w, h = (int(v) for v in sensor.film().crop_size())
     table = object_table(scene)
     rfilter = sensor.film().rfilter()
-    xs, ys, obj = _samples(scene, sensor, table, spp, seed)
     n_obj = len(table.names)
-    cov_obj = coverage(xs, ys, obj, n_obj, w, h, rfilter)
+    acc = dr.zeros(mi.Float, check_cells(w, h, n_obj))
+    # In passes of at most SAMPLES_PER_PASS samples (k per pixel each), so the samples' rays
+    # and hits never take more memory than a pass's: pass 0 keeps ``seed``, so a render that
+    # fits one pass is the same as unpassed.
+    k = max(1, min(spp, SAMPLES_PER_PASS // (w * h)))
+    for p, start in enumerate(range(0, spp, k)):
+        n = min(k, spp - start)
+        xs, ys, obj = _samples(scene, sensor, table, n, (seed + p * _PASS_SEED_STEP) % 2**32)
+        _accumulate(acc, xs, ys, obj, n_obj, w, h, rfilter)
+        del xs, ys, obj
+        dr.flush_malloc_cache()  # Dr.Jit keeps freed buffers for reuse: give the pass's back
+    cov = to_numpy(acc).astype(np.float64).reshape(w * h, n_obj + 1)
+    total = cov.sum(axis=1, keepdims=True)
+    cov_obj = np.divide(cov, total, out=np.zeros_like(cov), where=total > 0)
     obj_names = [table.names[k] for k in range(1, n_obj + 1)]
     obj_ids = np.array([name_id(n) for n in obj_names], np.float32)
     layers = ranked_layers(cov_obj, obj_ids, OBJECT, w, h, levels)

@@ -86,6 +86,9 @@ class Drawing:
     overlay: str = "picture"
     #: The rules between parameters (``near < far``), checked after each one's own rule.
     check: Callable[[Mapping[str, Any], str], None] = lambda values, who: None
+    #: What it refuses about a scene, checked before the render starts (a render the drawing
+    #: could not finish is refused before its beauty is paid for).
+    preflight: Callable[[SceneSession], None] = lambda session: None
 
     def param(self, name: str) -> Param:
         """The table's entry ``name``."""
@@ -278,6 +281,11 @@ def _draw_strokes(session: SceneSession, gb: GBuffer, p: Mapping[str, Any], **_:
 # ----------------------------------------------------------------------------- cryptomatte
 
 
+def _cryptomatte_preflight(session: SceneSession) -> None:
+    w, h = (int(v) for v in session.sensor.film().crop_size())
+    cryptomatte.check_cells(w, h, len(session.objects.names))
+
+
 def _draw_cryptomatte(
     session: SceneSession,
     gb: GBuffer,
@@ -337,6 +345,7 @@ DRAWINGS: dict[str, Drawing] = {
             (),
             _draw_cryptomatte,
             overlay="none",
+            preflight=_cryptomatte_preflight,
         ),
     )
 }

@@ -180,6 +180,11 @@ class NprIntegrator(mi.SamplingIntegrator):
         else:
             require_jit(self.PLUGIN)
             session = SceneSession(scene, sensor_of(scene, sensor), source, check_spp(spp))
+        drawings = [self.DRAWING] if self.DRAWING is not None else []
+        if self.params.get("cryptomatte"):
+            drawings.append(DRAWINGS["cryptomatte"])
+        for d in drawings:  # what a drawing refuses, before the beauty is paid for
+            d.preflight(session)
         gb = render_gbuffer(session, beauty=self.beauty, spp=spp, seed=seed)
         gb = self.post(session, gb)
         if self.params.get("cryptomatte"):

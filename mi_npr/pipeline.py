@@ -147,6 +147,8 @@ def render_layers(
     asked = [*drawings, *(["cryptomatte"] if cryptomatte else [])]
     with session.step("reading the drawings' parameters"):
         on = settings(integ, asked, params, scene_drawings)
+        for name in on:
+            DRAWINGS[name].preflight(session)
     beauty = integ.beauty if hasattr(integ, "npr_gbuffer") else integ
     gb = render_gbuffer(session, beauty=beauty, spp=session.spp, seed=seed, progress=progress)
     if session.source is not None:
