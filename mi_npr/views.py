@@ -31,6 +31,7 @@ Ambiguities resolved: the sphere's views have the up of best view's cameras
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -39,7 +40,16 @@ from typing import Any
 
 import numpy as np
 
-from .camera import Camera, on_sphere, orbit, read_cameras, sphere_directions, to_json
+from .camera import (
+    Camera,
+    bounding_sphere,
+    fit_distance,
+    on_sphere,
+    orbit,
+    read_cameras,
+    sphere_directions,
+    to_json,
+)
 from .errors import ParameterError
 from .params import MAX_BEST, MAX_VIEWS, Param, check_arg, integer_range
 from .viewpoint.search import check_shapes, search, viewing
@@ -54,6 +64,8 @@ VIEW_PARAMS: tuple[Param, ...] = (
 )
 
 _MEASURES = ("entropy", "pb", "curvature")
+#: Sphere views stand this much farther than the distance at which what they frame just fits.
+FRAME_MARGIN = 1.1
 
 
 @dataclass(frozen=True)
@@ -159,11 +171,17 @@ def parse_views(text: str) -> ViewSpec:
 
 
 def sphere(scene: Any, sensor: Any, n: int, upper: bool = True) -> list[Camera]:
-    """``n`` cameras at Fibonacci-lattice directions on best view's viewing sphere (its centre,
-    radius and up axis; only the upper half with ``upper``), looking at its centre
+    """``n`` cameras at Fibonacci-lattice directions on a sphere about the objects that matter
+    (:func:`mi_npr.camera.objects_that_matter`: not a floor, a backdrop or a light), at the
+    distance from which their bounding sphere fits the film with a 10% margin, best view's up
+    axis and fov (only the upper half with ``upper``), looking at its centre
     (:func:`mi_npr.camera.sphere_directions`, :func:`mi_npr.camera.on_sphere`)."""
 
     view = viewing(scene, res=32, sensor=sensor, allow_below=not upper)
+    c, r, _ = bounding_sphere(scene)
+    if np.all(np.isfinite(c)) and math.isfinite(r) and r > 0:
+        distance = FRAME_MARGIN * fit_distance(r, view.fov, view.size)
+        view = viewing(scene, c, distance, 32, sensor=sensor, allow_below=not upper)
     d = sphere_directions(n, view.up, upper)
     return on_sphere(d, view.target, view.radius, view.up, view.fov)
 

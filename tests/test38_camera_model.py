@@ -291,3 +291,44 @@ def test14_camera_package_imports_nothing_above_it():
                 assert top in allowed, f"{f.name} imports mi_npr.{node.module}"
             if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
                 assert not node.module.startswith("mi_npr"), f"{f.name}: {node.module}"
+
+
+FLOOR_AND_BACKDROP = """<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="3, 2, 6" target="3, 0.25, 0" up="0, 1, 0"/>
+        </transform>
+        <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="32"/>
+        </film>
+    </sensor>
+    <shape type="cube" id="crate"><transform name="to_world"><scale value="0.25"/>
+        <translate x="3" y="0.25"/></transform></shape>
+    <shape type="rectangle" id="floor"><transform name="to_world"><scale value="20"/>
+        <rotate x="1" angle="-90"/></transform></shape>
+    <shape type="rectangle" id="backdrop"><transform name="to_world"><scale value="20"/>
+        <translate y="10" z="-10"/></transform></shape>
+    <shape type="sphere" id="lamp"><point name="center" x="-6" y="8" z="0"/>
+        <float name="radius" value="0.2"/><emitter type="area"/></shape>
+</scene>"""
+
+
+@pytest.mark.parametrize("spec", ["orbit:4", "sphere:4"])
+def test20_views_frame_the_objects_not_the_floor(tmp_path, spec):
+    """A crate off-centre on a 40 m floor before a backdrop, lit by an area light: the framing
+    is the crate's (floors, backdrops and lights are not what a view is about), so every view
+    sees it, and sphere views see it whole and large."""
+    from mi_npr import views
+    from mi_npr.camera import objects_that_matter, sensor_for
+    from mi_npr.session import SceneSession
+
+    path = tmp_path / "stage.xml"
+    path.write_text(FLOOR_AND_BACKDROP)
+    s = SceneSession.open(path)
+    assert [sh.id() for sh in objects_that_matter(s.scene)] == ["crate"]
+    crate = s.objects.id_of("crate")
+    for vid, cam in views.cameras(views.parse_views(spec), s.scene, s.sensor):
+        gb = mi_npr.render(s.scene, sensor=sensor_for(cam, s.sensor), spp=1)
+        seen = gb.object_id == crate
+        assert seen.sum() > 30, (vid, int(seen.sum()))
+        if spec.startswith("sphere"):  # whole: the crate touches no border of the image
+            assert not (seen[0].any() or seen[-1].any() or seen[:, 0].any() or seen[:, -1].any())

@@ -104,12 +104,13 @@ def test05_sphere_upper_half_and_whole(write_scene):
     path = write_scene(BODY, origin="0, 1, -4", target="0, 0, 0")
     s = SceneSession.open(path)
     view = viewing(s.scene, res=32, sensor=s.sensor)
+    radius = V.FRAME_MARGIN * view.radius  # one object: it alone is framed, with the margin
     for upper, n in ((True, 10), (False, 11)):
         cams = V.sphere(s.scene, s.sensor, n, upper=upper)
         assert len(cams) == n
         o = np.array([c.origin for c in cams]) - view.target
-        np.testing.assert_allclose(np.linalg.norm(o, axis=1), view.radius, rtol=1e-9)
-        h = o @ view.up / view.radius
+        np.testing.assert_allclose(np.linalg.norm(o, axis=1), radius, rtol=1e-9)
+        h = o @ view.up / radius
         if upper:
             assert np.all(h > 0)
         else:

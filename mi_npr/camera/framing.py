@@ -1,7 +1,10 @@
 """Where cameras go around a scene: its bounding sphere, the orbit, the sphere of views.
 
 **Framing.** A scene is framed by the bounding sphere (centre ``c``, radius ``R``) of the objects
-that matter (:func:`bounding_sphere`: all shapes, or those given, e.g. all but a floor). A
+that matter (:func:`objects_that_matter`, or the shapes given, e.g. all but a floor): not the
+shapes of emitters (an area light), not flat shapes (floors, backdrops, walls: the box's smallest
+extent below :data:`FLAT` of its largest), not shapes far larger than the rest (a ground: a box
+diagonal above :data:`HUGE` times the median of the others'), unless that leaves nothing. A
 pinhole camera with horizontal field of view ``fov`` and an image of ``W x H`` pixels sees the
 whole sphere from the distance ``R / sin(phi / 2)`` (:func:`fit_distance`), ``phi`` the smaller
 of its horizontal and vertical fields of view, ``tan(phi_y / 2) = tan(fov / 2) H / W``.
@@ -44,16 +47,45 @@ from .sensor import camera_of
 SceneLike = str | os.PathLike[str] | mi.Scene
 
 
+#: A shape is flat (a floor, a backdrop, a wall) when its box's smallest extent is below this
+#: share of its largest.
+FLAT = 1e-3
+#: A shape is far larger than the rest (a ground, a dome) when its box's diagonal exceeds this
+#: many times the median of the others'.
+HUGE = 8.0
+
+
+def objects_that_matter(scene: mi.Scene) -> list[mi.Shape]:
+    """The shapes a view is framed on (module docstring): all but emitters' shapes, flat
+    shapes and shapes far larger than the rest; all of them when that leaves none."""
+    shapes = list(scene.shapes())
+    boxes = [shape_bbox(s) for s in shapes]
+    ext = [np.asarray(b[1] - b[0], np.float64) for b in boxes]
+    keep = [
+        s
+        for s, e in zip(shapes, ext, strict=True)
+        if not s.is_emitter() and np.all(np.isfinite(e)) and e.min() > FLAT * max(e.max(), 0)
+    ]
+    if len(keep) > 1:
+        diag = {id(s): float(np.linalg.norm(ext[shapes.index(s)])) for s in keep}
+        median = float(np.median(list(diag.values())))
+        small = [s for s in keep if diag[id(s)] <= HUGE * median]
+        keep = small or keep
+    return keep or shapes
+
+
 def bounding_sphere(
     scene: mi.Scene, shapes: Sequence[mi.Shape] | None = None
 ) -> tuple[np.ndarray, float, float]:
-    """``(centre, R, inner)``: the bounding sphere of ``scene``'s shapes (or of ``shapes``),
-    and the radius of a sphere of viewpoints inside their box (a quarter of its smallest
-    extent; 0 for a flat scene, which has no inside). A scene without shapes: ``(0, 0, 0)``;
-    an unbounded one: a non-finite centre or radius."""
+    """``(centre, R, inner)``: the bounding sphere of the objects that matter in ``scene``
+    (:func:`objects_that_matter`; or of ``shapes``), and the radius of a sphere of viewpoints
+    inside their box (a quarter of its smallest extent; 0 for a flat scene, which has no
+    inside). A scene without shapes: ``(0, 0, 0)``; an unbounded one: a non-finite centre or
+    radius."""
     if not scene.shapes():
         return np.zeros(3), 0.0, 0.0
     bb = scene.bbox()
+    shapes = shapes or objects_that_matter(scene)
     if shapes:
         boxes = np.stack([shape_bbox(s) for s in shapes])
         bb = mi.ScalarBoundingBox3f(boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0))

@@ -200,11 +200,10 @@ def _bounding_sphere(
     """The scene's bounding sphere, or that of the objects not in ``ignore`` (a floor left out
     of the measures is left out of the framing too), and the radius of the sphere of viewpoints
     inside it (:func:`mi_npr.camera.bounding_sphere`)."""
-    shapes = None
-    if ignore:
-        kept = [s for k, s in polys.table.shapes.items() if polys.table.names[k] not in ignore]
-        shapes = kept or None
-    c, r, inner = bounding_sphere(scene, shapes)
+    # Best view frames every shape but the ignored ones (a room's walls make its inside), not
+    # only the objects that matter of the camera framing.
+    kept = [s for k, s in polys.table.shapes.items() if polys.table.names[k] not in ignore]
+    c, r, inner = bounding_sphere(scene, kept or list(scene.shapes()))
     if not (np.all(np.isfinite(c)) and math.isfinite(r)):
         raise SceneError("the scene's bounding box is not finite: give target and radius")
     return c, r, inner
