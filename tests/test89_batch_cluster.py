@@ -21,7 +21,7 @@ import pytest
 import mi_npr
 from mi_npr.io.manifest import read_rows
 
-from .helpers import ROOT
+from .helpers import ROOT, scene_xml
 
 SCENES = [str(ROOT / "scenes_xml" / "scene1.xml"), str(ROOT / "scenes_xml" / "scene2.xml")]
 SIZE = ["--width", "32", "--height", "24", "--spp", "2"]
@@ -224,3 +224,41 @@ def test03_a_killed_worker_loses_no_job(cluster, tmp_path):
     assert len(rows) == 2 * n and all(row["status"] == "done" for row in rows)
     assert b"2 of" not in stdout and f"{2 * n} of {2 * n} jobs done".encode() in stdout
     json.dumps(rows)
+
+
+# -- nothing hangs ---------------------------------------------------------------------------
+
+
+def _envmap_scene(tmp: Path) -> Path:
+    """A sphere lit by an 8 x 4 EXR environment map, written by mi-npr's own EXR writer."""
+    from mi_npr.gbuffer import GBuffer
+
+    rgb = {c: np.full((4, 8), v, np.float32) for c, v in zip("RGB", (0.5, 0.6, 0.7), strict=True)}
+    mi_npr.io.write_exr(tmp / "env.exr", GBuffer(rgb))
+    xml = tmp / "envmap.xml"
+    xml.write_text(
+        scene_xml(
+            '<emitter type="envmap"><string name="filename" value="env.exr"/></emitter>'
+            '<shape type="sphere"><point name="center" x="0" y="0" z="3"/></shape>',
+            width=16,
+            height=16,
+            integrator='<integrator type="path"/>',
+        )
+    )
+    return xml
+
+
+def test04_an_exr_texture_loads_on_one_thread_per_worker(tmp_path):
+    """Mitsuba deadlocks loading an EXR texture under one Dr.Jit thread: two workers of one
+    thread each still render the scene (the loader takes two threads, then gives one back)."""
+    xml = _envmap_scene(tmp_path)
+    out = tmp_path / "out"
+    argv = [sys.executable, "-m", "mi_npr.cli", "batch", str(xml), "-o", str(out), "--views",
+            "orbit:2", "--workers", "2", "--threads-per-worker", "1", "--no-progress"]  # fmt: skip
+    r = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True, timeout=90, check=False)
+    assert r.returncode == 0, r.stderr
+    rows = _rows(out)
+    assert [row["status"] for row in rows] == ["done", "done"]
+    beauty = mi_npr.io.read_exr(out / rows[0]["outputs"][0]).beauty
+    # Seen around the sphere, the background is the map's constant colour.
+    np.testing.assert_allclose(beauty[0, 0], (0.5, 0.6, 0.7), rtol=1e-3)

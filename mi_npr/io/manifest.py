@@ -12,12 +12,12 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import xml.etree.ElementTree as ET
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 from ..errors import OutputError, ParameterError
+from ..scene import scene_files
 
 MANIFEST = "manifest.jsonl"
 
@@ -58,43 +58,21 @@ def read_rows(path: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:
                 yield row
 
 
-def _referenced(xml: Path, seen: set[Path]) -> list[Path]:
-    """The files an XML scene names (``filename`` values and ``<include>``\\ s, recursively),
-    those that exist; names holding a ``$default`` cannot be resolved and are skipped."""
-    try:
-        root = ET.parse(xml).getroot()
-    except (ET.ParseError, OSError):
-        return []
-    found: list[Path] = []
-    for el in root.iter():
-        names = []
-        if el.tag == "include" and "filename" in el.attrib:
-            names.append(el.attrib["filename"])
-        if el.attrib.get("name") == "filename" and "value" in el.attrib:
-            names.append(el.attrib["value"])
-        for name in names:
-            if "$" in name:
-                continue
-            p = (xml.parent / name).resolve()
-            if p in seen or not p.is_file():
-                continue
-            seen.add(p)
-            found.append(p)
-            if p.suffix.lower() == ".xml":
-                found.extend(_referenced(p, seen))
-    return found
-
-
-def scene_hash(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a scene file and of every file it references (meshes, textures, includes,
-    in document order, each with its name relative to the scene): ``sha256:<hex>``."""
+def scene_hash(path: str | os.PathLike[str], defines: Mapping[str, Any] | None = None) -> str:
+    """SHA-256 of a scene file and of every file it references with ``defines``
+    (:func:`mi_npr.scene.scene_files`: meshes, textures, includes, ``$name`` resolved), in
+    document order, each with its name relative to the scene: ``sha256:<hex>``. A referenced
+    file that does not exist counts by its name only."""
     xml = Path(path).resolve()
     h = hashlib.sha256()
     try:
-        files = [xml, *_referenced(xml, {xml})]
+        files = [xml, *scene_files(xml, defines)]
         for f in files:
             rel = os.path.relpath(f, xml.parent) if f != xml else ""
             h.update(rel.encode() + b"\0")
+            if f != xml and not f.is_file():
+                h.update(b"missing\0")
+                continue
             with open(f, "rb") as fh:
                 for block in iter(lambda fh=fh: fh.read(1 << 20), b""):
                     h.update(block)
