@@ -24,12 +24,14 @@ times, then recorded as ``failed`` with a one-line error while the others go on.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import socket
 import sys
 import threading
 import time
+import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -46,10 +48,26 @@ from ._variant import set_variant
 from .camera import camera_of, resolve, sensor_for
 from .compose import raw_beauty
 from .drawings import split_params
-from .errors import NprError, ParameterError, SceneError, check_input_file, for_terminal, one_line
+from .errors import (
+    NprError,
+    NprWarning,
+    ParameterError,
+    SceneError,
+    check_input_file,
+    for_terminal,
+    one_line,
+)
 from .io import check_writable_dir
 from .io.manifest import MANIFEST, append_row, read_rows, scene_hash
-from .params import MAX_RETRIES, MAX_THREADS, MAX_WORKERS, Param, check_arg, integer_range
+from .params import (
+    MAX_RETRIES,
+    MAX_THREADS,
+    MAX_WORKERS,
+    Param,
+    check_arg,
+    integer_range,
+    real_range,
+)
 from .pipeline import render_layers
 from .session import RENDER_PARAMS, SceneSession
 from .viewpoint.outputs import view_warning
@@ -158,7 +176,25 @@ CLUSTER_PARAMS: tuple[Param, ...] = (
         integer_range(1, MAX_THREADS),
     ),
     Param("retries", int, 0, "retries of a failed job", integer_range(0, MAX_RETRIES)),
+    Param(
+        "job_timeout",
+        float,
+        None,
+        "seconds a job may go without progress before it is stopped and its worker replaced "
+        "(default: 300, plus 1 per 10,000 samples while it renders)",
+        real_range(0.0, 1e7, open_lo=True),
+    ),
 )
+
+#: A job's bound without progress (:data:`CLUSTER_PARAMS` ``job_timeout``): this many seconds
+#: per step (loading the scene and placing the cameras, rendering, writing) ...
+JOB_TIMEOUT = 300.0
+#: ... plus one second per this many samples (film pixels x spp) while it renders.
+SAMPLES_PER_SECOND = 1e4
+#: The Dask event topic of the jobs' progress (worker -> client).
+PROGRESS_TOPIC = "mi-npr-progress"
+#: How often the client looks for jobs past their bound (seconds).
+POLL = 0.2
 
 
 @dataclass(frozen=True)
@@ -197,6 +233,9 @@ class BatchSettings:
     paper: tuple[float, ...] | None = None
     #: outputs in ``outdir`` itself, not ``outdir/<scene stem>`` (one scene: a camera path)
     flat: bool = False
+    #: seconds a job may go without progress (``None``: :data:`JOB_TIMEOUT` and the render's
+    #: samples)
+    job_timeout: float | None = None
 
     def flags(self) -> dict[str, Any]:
         """What makes two renders of a job equal (compared by ``resume``), JSON-ready."""
@@ -288,14 +327,37 @@ def _view_warning(job: Job, gb: Any) -> str | None:
     return None if why is None else f"{job.id}: the view is probably useless: {why}"
 
 
+def _progress(settings: BatchSettings, samples: int | None = None) -> None:
+    """Tell the client (on Dask) that this worker's job made progress, and how long its next
+    step may take: ``job_timeout``, else :data:`JOB_TIMEOUT` plus ``samples`` /
+    :data:`SAMPLES_PER_SECOND` (the render of ``samples`` samples)."""
+    try:  # imported here: see _worker_name
+        from distributed import get_worker
+
+        worker = get_worker()
+        key = worker.get_current_task()
+    except (ImportError, ValueError):
+        return  # not on a Dask worker: nothing watches the job
+    limit = settings.job_timeout or JOB_TIMEOUT + (samples or 0) / SAMPLES_PER_SECOND
+    worker.log_event(PROGRESS_TOPIC, {"key": str(key), "worker": worker.address, "limit": limit})
+
+
+def _samples(sensor: Any, spp: int | None) -> int:
+    w, h = (int(v) for v in sensor.film().crop_size())
+    return w * h * (spp or int(sensor.sampler().sample_count()))
+
+
 def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str, Any]:
     """Render and write one job; its manifest row (``status`` ``done`` or ``failed`` with a
-    one-line ``error``). Runs on a worker; never raises for a failing job."""
+    one-line ``error``). Runs on a worker; never raises for a failing job. On Dask it reports
+    its progress (:func:`_progress`) before each step, so the client can stop it when a step
+    takes longer than its bound."""
 
     t0 = time.perf_counter()
     row = _row(settings, job, attempt, worker=_worker_name())
     with _JOB_LOCK:
         try:
+            _progress(settings)
             _configure(settings)
             session, cams = _scene(settings, job)
             camera = cams[job.view]
@@ -305,6 +367,7 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
                 given = resolve(camera, session.sensor, settings.views.where(job.view))
                 sensor = sensor_for(given, session.sensor)
             row["camera"] = (camera or camera_of(session.sensor)).to_dict()
+            _progress(settings, _samples(sensor, session.spp))
             result = render_layers(
                 session.scene,
                 settings.drawings,
@@ -313,6 +376,7 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
                 spp=session.spp,
                 seed=settings.seed,
             )
+            _progress(settings)
             outdir = Path(settings.outdir) / ("" if settings.flat else job.stem)
             written = io.write_layered_outputs(
                 result, outdir, job.view, line_color=settings.line_color, paper=settings.paper
@@ -393,6 +457,7 @@ def run(
     scheduler: str | None = None,
     resume: bool = False,
     retries: int = 0,
+    job_timeout: float | None = None,
     progress: bool = True,
     line_color: Sequence[float] | None = None,
     paper: Sequence[float] | None = None,
@@ -405,9 +470,17 @@ def run(
 
     ``flat`` writes one scene's views into ``out`` itself (``out/<view id>.exr``; the camera
     paths of :mod:`mi_npr.paths`). ``client``: a ``distributed.Client`` to run on; else
-    ``scheduler`` (an address) to connect
-    to; else a ``LocalCluster`` of ``workers`` processes (default: one per core, at most one per
-    job) started and closed here; ``workers=0`` renders in this process, without Dask.
+    ``scheduler`` (an address, reached within Dask's connect timeout,
+    ``distributed.comm.timeouts.connect``, 30 s by default) to connect to; else a
+    ``LocalCluster`` of ``workers`` processes started and closed here (default: one per core;
+    never more than jobs, and more than cores only when asked, with a warning); ``workers=0``
+    renders in this process, without Dask.
+
+    On Dask, a job that goes without progress for longer than its bound (``job_timeout``
+    seconds per step, default :data:`JOB_TIMEOUT` plus its samples over
+    :data:`SAMPLES_PER_SECOND`) is stopped, its worker restarted, and the job retried while it
+    has ``retries`` left, else recorded as failed with the reason; the batch goes on. A job
+    retried carries the errors of its earlier attempts in its row's ``retried``.
 
     >>> import tempfile
     >>> rows = mi_npr.batch.run(["scenes_xml/scene1.xml"], "orbit:2", out=tempfile.mkdtemp(),
@@ -428,6 +501,7 @@ def run(
         arg("threads_per_worker", threads_per_worker),
         arg("retries", retries),
     )
+    job_timeout = arg("job_timeout", job_timeout)
     jobs, spec = plan(scenes, views)
     outdir = check_writable_dir(out, create=True)
     settings = BatchSettings(
@@ -445,6 +519,7 @@ def run(
         line_color=tuple(float(v) for v in line_color) if line_color else None,
         paper=tuple(float(v) for v in paper) if paper else None,
         flat=flat,
+        job_timeout=job_timeout,
     )
     if flat and len({j.scene for j in jobs}) > 1:
         raise ParameterError("flat outputs are for one scene (its views' files would collide)")
@@ -521,11 +596,84 @@ def local_cluster(workers: int, **kwargs: Any) -> Any:
 
 
 def _default_workers(workers: int | None, jobs: int, threads: int | None) -> tuple[int, int]:
-    """Workers of a LocalCluster (default: one per core, at most one per job) and the Dr.Jit
-    threads each uses (default: the cores shared out)."""
+    """Workers of a LocalCluster and the Dr.Jit threads each uses (default: the cores shared
+    out). Default: one per core, at most one per job. Asked for: never more than the jobs (an
+    idle worker only costs its start-up; a warning says so), more than the cores with a
+    warning."""
     cores = os.cpu_count() or 1
-    n = workers or max(1, min(cores, jobs))
+    if not workers:
+        n = max(1, min(cores, jobs))
+    else:
+        n = workers
+        if n > jobs:
+            warnings.warn(
+                f"workers = {n}: only {jobs} job{'s' * (jobs != 1)} to run, so {jobs} "
+                f"worker{'s' * (jobs != 1)} started",
+                NprWarning,
+                stacklevel=3,
+            )
+            n = jobs
+        if n > cores:
+            warnings.warn(
+                f"workers = {n}: more workers than the {cores} cores (they share them)",
+                NprWarning,
+                stacklevel=3,
+            )
     return n, threads or max(1, cores // n)
+
+
+def _connect(scheduler: str) -> Any:
+    """A ``distributed.Client`` of the scheduler at ``scheduler``, or a :class:`ParameterError`
+    naming ``--scheduler`` within Dask's connect timeout: a malformed address, nothing
+    listening, a silent port, or a peer that is no Dask scheduler (an HTTP server)."""
+    import asyncio
+
+    import dask  # imported here: see _worker_name
+    from dask.utils import parse_timedelta
+    from distributed import Client
+    from distributed.comm import connect
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.security import Security
+
+    where = f"--scheduler {scheduler!r}"
+    try:
+        scheme, loc = parse_address(scheduler)
+        if scheme not in ("tcp", "tls"):
+            raise ValueError(f"scheme {scheme!r}")
+        _, port = parse_host_port(loc)
+        if not 0 < int(port) < 65536:
+            raise ValueError(f"port {port}")
+    except (ValueError, TypeError) as e:
+        raise ParameterError(
+            f"{where}: not a scheduler address ({one_line(e)}; expected tcp://HOST:PORT)"
+        ) from None
+    bound = parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"), "s") or 30.0
+    args = Security().get_connection_args("client")
+
+    async def identity() -> Any:
+        comm = await connect(scheduler, timeout=bound, **args)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        answer = asyncio.run(asyncio.wait_for(identity(), bound))
+    except (TimeoutError, asyncio.TimeoutError, OSError) as e:
+        why = one_line(e) if str(e) else f"no answer within {bound:g} s"
+        raise ParameterError(f"{where}: cannot connect ({why})") from None
+    except Exception as e:  # the peer's bytes are no Dask message (MemoryError, ValueError)
+        raise ParameterError(
+            f"{where}: not a Dask scheduler (its answer cannot be read: {type(e).__name__})"
+        ) from None
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        kind = answer.get("type") if isinstance(answer, dict) else type(answer).__name__
+        raise ParameterError(f"{where}: not a Dask scheduler (it is a {kind})")
+    try:
+        return Client(scheduler, timeout=bound)
+    except (OSError, TimeoutError) as e:
+        raise ParameterError(f"{where}: cannot connect ({one_line(e)})") from None
 
 
 def _run_dask(
@@ -538,61 +686,143 @@ def _run_dask(
     workers: int | None,
 ) -> None:
     """The batch on Dask: one task per job, submitted scene by scene; a failed task (or one
-    whose worker died) is submitted again while it has retries left."""
+    whose worker died, or one stopped past its bound without progress) is submitted again
+    while it has retries left."""
     from distributed import Client, as_completed  # imported here: see _worker_name
 
     own_cluster = own_client = None
     try:
         if client is None:
             if scheduler is not None:
-                try:
-                    # Dask's connect timeout (30 s; $DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT)
-                    client = own_client = Client(scheduler)
-                except (OSError, TimeoutError) as e:
-                    raise ParameterError(
-                        f"--scheduler {scheduler}: cannot connect ({one_line(e)})"
-                    ) from None
+                client = own_client = _connect(scheduler)
             else:
                 n, threads = _default_workers(workers, len(jobs), settings.threads)
                 own_cluster = local_cluster(n)
                 settings = replace(settings, threads=threads)
                 client = own_client = Client(own_cluster)
-        tag = f"{os.getpid()}-{time.time_ns()}"
-        attempts: dict[Any, tuple[Job, int]] = {}
-
-        def submit(job: Job, attempt: int, priority: int) -> Any:
-            fut = client.submit(
-                render_job,
-                settings,
-                job,
-                attempt,
-                key=f"mi-npr-{job.id}-{attempt}-{tag}",
-                pure=False,
-                priority=priority,
-            )
-            attempts[fut.key] = (job, attempt)
-            return fut
-
-        futures = as_completed([submit(j, 1, len(jobs) - i) for i, j in enumerate(jobs)])
-        for fut in futures:
-            job, attempt = attempts.pop(fut.key)
-            try:
-                row = fut.result()
-            except Exception as e:  # the worker died (KilledWorker), the task could not run
-                row = _row(
-                    settings,
-                    job,
-                    attempt,
-                    error=f"{job.id}: {type(e).__name__}: {one_line(e)}",
-                    seconds=None,
-                )
-            fut.release()
-            if row["status"] != "done" and attempt <= retries:
-                futures.add(submit(job, attempt + 1, len(jobs)))
-                continue
-            record(row)
+        _watch(settings, jobs, retries, record, client, as_completed)
     finally:
         if own_client is not None:
             own_client.close()
         if own_cluster is not None:
             own_cluster.close()
+
+
+def _watch(
+    settings: BatchSettings,
+    jobs: Sequence[Job],
+    retries: int,
+    record: Callable,
+    client: Any,
+    as_completed: Any,
+) -> None:
+    """Submit ``jobs``, record each one's row as it ends, and stop the jobs that go past their
+    bound without progress: the task is cancelled, its worker restarted (a worker without a
+    nanny is stopped), and the job retried or recorded as failed with the reason."""
+    tag = f"{os.getpid()}-{time.time_ns()}"
+    attempts: dict[str, tuple[Job, int, Any]] = {}  # task key -> (job, attempt, future)
+    earlier: dict[str, list[str]] = {}  # job id -> errors of its earlier attempts
+    seen: dict[str, tuple[float, float, str]] = {}  # task key -> (last progress, bound, worker)
+    lock = threading.Lock()
+
+    def on_progress(event: Any) -> None:
+        _, msg = event
+        if isinstance(msg, dict) and "key" in msg:
+            with lock:
+                seen[str(msg["key"])] = (time.monotonic(), float(msg["limit"]), msg["worker"])
+
+    def submit(job: Job, attempt: int, priority: int) -> Any:
+        fut = client.submit(
+            render_job,
+            settings,
+            job,
+            attempt,
+            key=f"mi-npr-{job.id}-{attempt}-{tag}",
+            pure=False,
+            priority=priority,
+        )
+        attempts[str(fut.key)] = (job, attempt, fut)
+        return fut
+
+    def finish(job: Job, attempt: int, row: dict[str, Any]) -> bool:
+        """Record ``row``, or retry the job (True) while it has retries left."""
+        if row["status"] != "done" and attempt <= retries:
+            earlier.setdefault(job.id, []).append(str(row["error"]))
+            futures.add(submit(job, attempt + 1, len(jobs)))
+            return True
+        if job.id in earlier:
+            row["retried"] = earlier.pop(job.id)
+        record(row)
+        return False
+
+    client.subscribe_topic(PROGRESS_TOPIC, on_progress)
+    try:
+        futures = as_completed([submit(j, 1, len(jobs) - i) for i, j in enumerate(jobs)])
+        while attempts:
+            done = futures.next_batch(block=False) if futures.has_ready() else []
+            for fut in done:
+                key = str(fut.key)
+                if key not in attempts:  # a task stopped past its bound: recorded already
+                    continue
+                job, attempt, _ = attempts.pop(key)
+                with lock:
+                    seen.pop(key, None)
+                try:
+                    row = fut.result()
+                except Exception as e:  # the worker died (KilledWorker), the task could not run
+                    row = _row(
+                        settings,
+                        job,
+                        attempt,
+                        error=f"{job.id}: {type(e).__name__}: {one_line(e)}",
+                        seconds=None,
+                    )
+                fut.release()
+                finish(job, attempt, row)
+            if not done:
+                if not _stop_stalled(settings, client, attempts, seen, lock, finish):
+                    time.sleep(POLL)
+    finally:
+        client.unsubscribe_topic(PROGRESS_TOPIC)
+
+
+def _stop_stalled(
+    settings: BatchSettings,
+    client: Any,
+    attempts: dict[str, tuple[Job, int, Any]],
+    seen: dict[str, tuple[float, float, str]],
+    lock: threading.Lock,
+    finish: Callable[[Job, int, dict[str, Any]], bool],
+) -> bool:
+    """Stop every running job past its bound without progress (see :func:`_watch`); whether
+    there was one."""
+    now = time.monotonic()
+    with lock:
+        stalled = [
+            (key, limit, worker)
+            for key, (when, limit, worker) in seen.items()
+            if key in attempts and now - when > limit
+        ]
+        for key, _, _ in stalled:
+            seen.pop(key, None)
+    for key, limit, worker in stalled:
+        job, attempt, fut = attempts.pop(key)
+        fut.cancel()
+        how = _replace_worker(client, worker)
+        error = f"{job.id}: no progress in {limit:g} s (job timeout): stopped, {how}"
+        row = _row(settings, job, attempt, error=error, worker=worker, seconds=None)
+        row["finished"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+        finish(job, attempt, row)
+    return bool(stalled)
+
+
+def _replace_worker(client: Any, worker: str) -> str:
+    """Restart ``worker`` (its nanny starts a fresh process; the job's thread cannot be
+    stopped otherwise), or stop it when it has no nanny; what was done, for the row."""
+    try:
+        client.restart_workers([worker], raise_for_error=True)
+        return f"worker {worker} restarted"
+    except Exception:  # no nanny (dask worker --no-nanny), or the restart failed: stop it
+        with contextlib.suppress(Exception):
+            client.run(os._exit, 1, workers=[worker], wait=False)
+        return f"worker {worker} stopped"

@@ -483,9 +483,9 @@ def render_frames(
     thesis's claim (:func:`mi_npr.coherence.line_variants`) and the plot draws them.
 
     ``cluster`` (``workers``, ``threads_per_worker``, ``scheduler``, ``client``, ``resume``,
-    ``retries``: :func:`mi_npr.batch.run`'s) makes every frame a batch job on Dask instead:
-    ``scene`` must then be an XML path; the cameras go to the batch in memory (camera ``i`` is
-    the view ``frame_%04d``); the frames are the same files (plus the batch's
+    ``retries``, ``job_timeout``: :func:`mi_npr.batch.run`'s) makes every frame a batch job on
+    Dask instead: ``scene`` must then be an XML path; the cameras go to the batch in memory
+    (camera ``i`` is the view ``frame_%04d``); the frames are the same files (plus the batch's
     ``manifest.jsonl``, so ``resume`` skips finished frames), read back for the coherence
     measure and the videos.
     """
@@ -583,7 +583,15 @@ def _frames_as_jobs(
         raise ParameterError("frames as batch jobs: give the scene as an XML path")
     views = [replace(c, id=f"frame_{i:04d}") for i, c in enumerate(cams)]
     w, h = resolution if resolution is not None else (None, None)
-    allowed = {"workers", "threads_per_worker", "scheduler", "client", "resume", "retries"}
+    allowed = {
+        "workers",
+        "threads_per_worker",
+        "scheduler",
+        "client",
+        "resume",
+        "retries",
+        "job_timeout",
+    }
     unknown = sorted(set(cluster) - allowed)
     if unknown:
         raise ParameterError(

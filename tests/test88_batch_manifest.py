@@ -156,6 +156,8 @@ def test06_cli_exit_codes_and_errors(write_scene, tmp_path, capsys):
         (["--workers", "5000"], 2, "--workers"),
         (["--threads-per-worker", "0"], 2, "--threads-per-worker"),
         (["--retries", "1000"], 2, "--retries"),
+        (["--job-timeout", "0"], 2, "--job-timeout"),
+        (["--job-timeout", "nan"], 2, "--job-timeout"),
         (["--scheduler", "tcp://127.0.0.1:9", "--views", "scene"], 1, "--scheduler"),
         (
             ["--crease-angle", "30"],

@@ -9,13 +9,15 @@ parameter's own rule, so a bad value is a usage error naming the flag (exit 2).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
-from collections.abc import Callable, Iterable, Sequence
+import warnings
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 from ..batch import CLUSTER_PARAMS, parse_define
 from ..drawings import DRAWINGS, shared_params
-from ..errors import ParameterError, for_terminal
+from ..errors import NprWarning, ParameterError, for_terminal
 from ..memory import parse_size
 from ..params import Param, coerce, problem
 from ..session import RENDER_PARAMS
@@ -44,6 +46,24 @@ def fail(message: str, code: int = 1) -> int:
 
 def warn(message: object) -> None:
     print(f"{PROG}: warning: {t(message)}", file=sys.stderr)
+
+
+@contextlib.contextmanager
+def npr_warnings() -> Iterator[None]:
+    """Inside the block, the library's :class:`~mi_npr.errors.NprWarning`\\ s are printed as
+    they happen, one ``mi-npr: warning:`` line each (others as Python prints them)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", NprWarning)
+        shown = warnings.showwarning
+
+        def show(message: Any, category: type, *rest: Any, **kw: Any) -> None:
+            if issubclass(category, NprWarning):
+                warn(message)
+            else:
+                shown(message, category, *rest, **kw)
+
+        warnings.showwarning = show
+        yield
 
 
 # ---------------------------------------------------------------------------- value parsing
