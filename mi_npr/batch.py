@@ -58,7 +58,7 @@ from .errors import (
     one_line,
 )
 from .io import check_writable_dir
-from .io.manifest import MANIFEST, append_row, read_rows, scene_hash
+from .io.manifest import MANIFEST, append_row, check_manifest, read_rows, scene_hash
 from .params import (
     MAX_RETRIES,
     MAX_THREADS,
@@ -524,6 +524,7 @@ def run(
     if flat and len({j.scene for j in jobs}) > 1:
         raise ParameterError("flat outputs are for one scene (its views' files would collide)")
     manifest = outdir / MANIFEST
+    check_manifest(manifest)
     flags = settings.flags()
     rows: dict[str, dict[str, Any]] = {}
     if resume:

@@ -122,3 +122,42 @@ def test04_an_output_set_is_all_or_nothing(tmp_path, monkeypatch):
     with pytest.raises(mi_npr.OutputError, match="No space left"):
         mi_npr.io.write_outputs(new, tmp_path, "x")
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # no temp, no mix
+
+
+def test05_fifos_are_not_regular_files_wherever_a_file_is_read_or_written(tmp_path):
+    """A FIFO would block whoever opens it: as the --views file, the manifest (read on
+    --resume, appended to), a scene's mesh (also through a $define) or an output, it is one
+    line saying "not a regular file", and the command ends."""
+    from mi_npr.io.manifest import append_row, read_rows
+
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    ball = tmp_path / "ball.xml"
+    ball.write_text(scene_xml(BALL, width=16, height=12))
+    mesh = tmp_path / "mesh.xml"
+    ply = '<shape type="ply"><string name="filename" value="$m"/></shape>'
+    mesh.write_text(scene_xml(f'<default name="m" value="fifo.json"/>{ply}'))
+    out = tmp_path / "out"
+    cases = [
+        (["batch", str(ball), "-o", str(out), "--views", str(fifo)], f"{fifo}: not a regular"),
+        (["batch", str(mesh), "-o", str(out)], f"{fifo}: not a regular file"),
+        (["render", str(mesh), "-o", str(out)], f"{fifo}: not a regular file"),
+    ]
+    (tmp_path / "o2").mkdir()
+    os.mkfifo(tmp_path / "o2" / "manifest.jsonl")
+    for resume in ([], ["--resume"]):
+        cases.append((["batch", str(ball), "-o", str(tmp_path / "o2"), *resume],
+                      "manifest.jsonl: not a regular file"))  # fmt: skip
+    (tmp_path / "o3").mkdir()
+    os.mkfifo(tmp_path / "o3" / "ball.png")
+    cases.append((["render", str(ball), "-o", str(tmp_path / "o3")], "ball.png: not a regular"))
+    for argv, words in cases:
+        r = subprocess.run([sys.executable, "-m", "mi_npr.cli", *argv, "--no-progress",
+                            *(["--workers", "0"] if argv[0] == "batch" else [])],
+                           cwd=ROOT, capture_output=True, text=True, timeout=60)  # fmt: skip
+        assert r.returncode == 1, (argv, r.stderr)
+        assert words in r.stderr and "Traceback" not in r.stderr, (argv, r.stderr)
+    for call in (lambda: append_row(fifo, {"job": "x"}), lambda: list(read_rows(fifo))):
+        with pytest.raises(mi_npr.OutputError, match="not a regular file"):
+            call()
+    assert sorted(p.name for p in (tmp_path / "o3").iterdir()) == ["ball.png"]  # no temp left

@@ -13,6 +13,7 @@ import atexit
 import contextlib
 import os
 import re
+import stat
 import tempfile
 import time
 from collections.abc import Iterator
@@ -44,6 +45,19 @@ def check_writable_dir(directory: str | os.PathLike[str], create: bool = False) 
     if not os.access(d, os.W_OK | os.X_OK):
         raise OutputError(f"{d}: output directory is not writable")
     return d
+
+
+def _check_target(target: Path) -> None:
+    """:class:`OutputError` when ``target`` exists and is not a regular file (or a link to
+    one): a FIFO, a device or a socket is never replaced by an output."""
+    try:
+        mode = os.stat(target).st_mode
+    except OSError:
+        return  # nothing there (or a dangling link): the rename creates the file
+    if stat.S_ISDIR(mode):
+        raise OutputError(f"{target}: is a directory")
+    if not stat.S_ISREG(mode):
+        raise OutputError(f"{target}: not a regular file")
 
 
 #: This process's temporary files not yet renamed into place (removed at exit, on SIGTERM).
@@ -157,6 +171,7 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[str]:
     target = Path(path)
     parent = target.parent if str(target.parent) else Path(".")
     check_writable_dir(parent)
+    _check_target(target)
     key = os.path.realpath(parent)
     if key not in _SWEPT:
         _SWEPT.add(key)

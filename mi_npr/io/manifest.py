@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import stat
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -22,13 +23,39 @@ from ..scene import scene_files
 MANIFEST = "manifest.jsonl"
 
 
+def _open_regular(path: str | os.PathLike[str], flags: int, what: str) -> int:
+    """``os.open`` that never blocks on a FIFO (``O_NONBLOCK``) and refuses anything but a
+    regular file: :class:`OutputError` "not a regular file" (a FIFO, device or socket)."""
+    try:
+        fd = os.open(path, flags | os.O_NONBLOCK, 0o666)
+    except FileNotFoundError:
+        raise
+    except OSError as e:  # a FIFO without a reader: ENXIO
+        check_manifest(path)
+        raise OutputError(f"{path}: cannot {what} the manifest ({e.strerror})") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise OutputError(f"{path}: not a regular file")
+    os.set_blocking(fd, True)
+    return fd
+
+
+def check_manifest(path: str | os.PathLike[str]) -> None:
+    """:class:`OutputError` when ``path`` exists and is not a regular file (checked before a
+    batch renders anything, so no job's work is lost to an unwritable manifest)."""
+    if os.path.lexists(path):
+        try:
+            mode = os.stat(path).st_mode
+        except OSError as e:
+            raise OutputError(f"{path}: cannot read the manifest ({e.strerror})") from None
+        if not stat.S_ISREG(mode):
+            raise OutputError(f"{path}: not a regular file")
+
+
 def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
     """Append ``row`` as one JSON line to ``path`` atomically (module docstring)."""
     data = (json.dumps(row, sort_keys=True, allow_nan=False, default=str) + "\n").encode()
-    try:
-        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
-    except OSError as e:
-        raise OutputError(f"{path}: cannot write the manifest ({e.strerror})") from None
+    fd = _open_regular(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, "write")
     try:
         n = os.write(fd, data)
         if n != len(data):  # a full disk: the reader skips the partial line
@@ -43,11 +70,9 @@ def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
 def read_rows(path: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:
     """The rows of a manifest in file order (none if it does not exist); bad lines skipped."""
     try:
-        f = open(path, "rb")
+        f = os.fdopen(_open_regular(path, os.O_RDONLY, "read"), "rb")
     except FileNotFoundError:
         return
-    except OSError as e:
-        raise OutputError(f"{path}: cannot read the manifest ({e.strerror})") from None
     with f:
         for line in f:
             try:
