@@ -25,6 +25,8 @@ times, then recorded as ``failed`` with a one-line error while the others go on.
 from __future__ import annotations
 
 import contextlib
+import functools
+import itertools
 import logging
 import os
 import socket
@@ -37,6 +39,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree as ET
 
 import drjit as dr
 import mitsuba as mi
@@ -47,7 +50,7 @@ from . import io
 from ._variant import set_variant
 from .camera import camera_of, resolve, sensor_for
 from .compose import raw_beauty
-from .drawings import split_params
+from .drawings import DRAWINGS, of_plugin, split_params
 from .errors import (
     NprError,
     NprWarning,
@@ -69,6 +72,7 @@ from .params import (
     real_range,
 )
 from .pipeline import render_layers
+from .scene import scene_files
 from .session import RENDER_PARAMS, SceneSession
 from .viewpoint.outputs import view_warning
 from .views import ViewSpec, cameras, parse_views
@@ -107,6 +111,98 @@ def check_unique_stems(paths: Sequence[str]) -> None:
         if stem in seen and seen[stem] != p:
             raise ParameterError(f"{seen[stem]} and {p} would both write outputs named {stem!r}")
         seen[stem] = p
+
+
+# -- the files of a job -----------------------------------------------------------------------
+
+#: The stem of the probe render whose files :func:`job_files` reads off.
+_PROBE_STEM = "STEM"
+
+
+@functools.lru_cache(maxsize=32)
+def job_files(
+    drawings: tuple[str, ...] = (), only: str | None = None, svg_image: str = "embed"
+) -> tuple[str, ...]:
+    """What :func:`mi_npr.io.write_layered_outputs` appends to a job's stem for every file it
+    writes with ``drawings`` on (and its ``only``, ``svg_image``): ``(".exr", ".png",
+    "_lines.png", "_lines.svg")`` for the lines. Read off the writer itself, not a list kept
+    beside it: a 4 x 4 render of a sphere with those drawings is written once per process into
+    a temporary folder. Every name the writer gives starts with the stem (checked here), so
+    two stems can only clash when one is a prefix of the other (:func:`check_outputs`)."""
+    import tempfile  # imported here: only a batch whose stems could clash needs the probe
+
+    from .io import write_layered_outputs
+
+    scene = mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": {"type": "path", "max_depth": 2},
+            "ball": {"type": "sphere", "radius": 0.5},
+            "camera": {
+                "type": "perspective",
+                "to_world": mi.ScalarTransform4f().look_at([0, 0, -3], [0, 0, 0], [0, 1, 0]),
+                "film": {"type": "hdrfilm", "width": 4, "height": 4},
+            },
+        },
+        optimize=False,
+    )
+    result = render_layers(scene, drawings, scene_drawings=False, spp=1)
+    with tempfile.TemporaryDirectory(prefix="mi-npr-probe-") as d:
+        written = write_layered_outputs(result, d, _PROBE_STEM, only=only, svg_image=svg_image)
+    names = [p.name for p in written]
+    if not all(n.startswith(_PROBE_STEM) for n in names):
+        raise RuntimeError(f"the writer names files without their stem: {names}")
+    return tuple(n[len(_PROBE_STEM) :] for n in names)
+
+
+def scene_drawings(path: str | os.PathLike[str], defines: Mapping[str, Any] | None) -> set[str]:
+    """The drawings a scene draws on its own (its integrator is a drawing's plugin, in the
+    file or an include); every drawing when an integrator's type is a ``$define``."""
+    found: set[str] = set()
+    for xml in [Path(path), *(f for f in scene_files(path, defines) if f.suffix == ".xml")]:
+        try:
+            root = ET.parse(xml).getroot()
+        except (ET.ParseError, OSError, RecursionError):
+            continue
+        for el in root.iter("integrator"):
+            kind = el.get("type", "")
+            if "$" in kind:
+                return set(DRAWINGS)
+            d = of_plugin(kind)
+            if d is not None:
+                found.add(d.name)
+    return found
+
+
+def check_outputs(
+    jobs: Sequence[tuple[str, str | os.PathLike[str], str, Sequence[str]]],
+    *,
+    only: str | None = None,
+    svg_image: str = "embed",
+) -> None:
+    """A :class:`ParameterError` naming both jobs when two of ``jobs`` would write one file,
+    before anything renders. ``jobs``: ``(label, directory, stem, drawings)``; each writes the
+    files of :func:`job_files` in its directory (view ``v`` with the lines writes
+    ``v_lines.png``, the beauty of view ``v_lines`` too)."""
+    by_dir: dict[str, list[tuple[str, str, tuple[str, ...]]]] = {}
+    for label, directory, stem, drawings in jobs:
+        key = os.path.abspath(directory)
+        by_dir.setdefault(key, []).append((label, stem, tuple(sorted(drawings))))
+    for directory, entries in by_dir.items():
+        stems = sorted({stem for _, stem, _ in entries})
+        prefixed = any(b.startswith(a) for a, b in itertools.pairwise(stems))
+        if not prefixed and len(stems) == len(entries):
+            continue  # no stem begins another: no two names can be equal
+        owner: dict[str, str] = {}
+        for label, stem, drawings in entries:
+            for suffix in job_files(drawings, only, svg_image):
+                name = stem + suffix
+                if name in owner and owner[name] != label:
+                    raise ParameterError(
+                        f"{owner[name]} and {label} would both write "
+                        f"{os.path.join(directory, name)}: rename one of them"
+                    )
+                owner[name] = label
 
 
 def run_jobs(
@@ -414,9 +510,14 @@ def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
     return tuple(sorted(out.items()))
 
 
-def plan(scenes: Sequence[str | os.PathLike[str]], views: Any) -> tuple[list[Job], Any]:
+def plan(
+    scenes: Sequence[str | os.PathLike[str]],
+    views: Any,
+    defines: Mapping[str, Any] | None = None,
+) -> tuple[list[Job], Any]:
     """The jobs of ``scenes`` x ``views`` (scene by scene) and the parsed view spec; ``views``
-    is a spec (text or :class:`~mi_npr.views.ViewSpec`) or a list of cameras."""
+    is a spec (text or :class:`~mi_npr.views.ViewSpec`) or a list of cameras; ``defines``
+    resolve the scenes' ``$name`` file names (:func:`~mi_npr.io.manifest.scene_hash`)."""
 
     if isinstance(views, ViewSpec):
         spec = views
@@ -434,7 +535,7 @@ def plan(scenes: Sequence[str | os.PathLike[str]], views: Any) -> tuple[list[Job
     check_unique_stems(paths)
     jobs = []
     for p in dict.fromkeys(paths):
-        h = scene_hash(p)
+        h = scene_hash(p, defines)
         jobs.extend(Job(p, h, v) for v in spec.ids())
     return jobs, spec
 
@@ -502,7 +603,7 @@ def run(
         arg("retries", retries),
     )
     job_timeout = arg("job_timeout", job_timeout)
-    jobs, spec = plan(scenes, views)
+    jobs, spec = plan(scenes, views, defines)
     outdir = check_writable_dir(out, create=True)
     settings = BatchSettings(
         outdir=str(outdir.resolve()),
@@ -523,6 +624,13 @@ def run(
     )
     if flat and len({j.scene for j in jobs}) > 1:
         raise ParameterError("flat outputs are for one scene (its views' files would collide)")
+    own = {j.scene: scene_drawings(j.scene, defines) for j in jobs}
+    check_outputs(
+        [
+            (j.id, outdir if flat else outdir / j.stem, j.view, (*settings.drawings, *own[j.scene]))
+            for j in jobs
+        ]
+    )
     manifest = outdir / MANIFEST
     check_manifest(manifest)
     flags = settings.flags()

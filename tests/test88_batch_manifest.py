@@ -188,3 +188,53 @@ def test07_local_cluster_and_resume_by_cli(write_scene, tmp_path):
     r = run_cli(*args, "--resume")
     assert r.returncode == 0 and "6 of 6 jobs done" in r.stdout
     assert len(list(read_rows(out / "manifest.jsonl"))) == 6
+
+
+# -- no file is written by two jobs ------------------------------------------------------------
+
+
+def test08_job_files_are_what_a_job_writes(write_scene, tmp_path):
+    """The names the clash check uses are read off the writer: equal to what a real job wrote,
+    every one its stem followed by the rest."""
+    from mi_npr.batch import job_files
+
+    path = write_scene(BODY, width=16, height=12)
+    for drawings in ((), ("lines",), ("lines", "contours")):
+        rows = _run(path, tmp_path / "-".join(drawings or ("none",)), views="scene",
+                    drawings=list(drawings))  # fmt: skip
+        written = sorted(os.path.basename(p) for p in rows[0]["outputs"])
+        assert sorted("scene" + s for s in job_files(tuple(sorted(drawings)))) == written
+    assert set(job_files(("lines",))) >= {".exr", ".png", "_lines.png", "_lines.svg"}
+
+
+def test09_two_jobs_writing_one_file_are_refused_before_rendering(write_scene, tmp_path, capsys):
+    path = write_scene(BODY, width=16, height=12)
+    views = tmp_path / "views.json"
+    cams = [
+        {"id": i, "origin": [0, 0, 0], "target": [0, 0, 1], "fov": 40} for i in ("v", "v_lines")
+    ]
+    views.write_text(json.dumps(cams))
+    out = tmp_path / "out"
+    with pytest.raises(mi_npr.ParameterError) as e:
+        _run(path, out, views=str(views), drawings=["lines"])
+    assert str(e.value) == (f"scene/v and scene/v_lines would both write {out / 'scene'}/"
+                            "v_lines.png: rename one of them")  # fmt: skip
+    assert not (out / "scene").exists()  # nothing rendered
+    # Without the lines, v writes no v_lines.png: no clash.
+    rows = _run(path, out, views=str(views))
+    assert [r["status"] for r in rows] == ["done", "done"]
+    # A scene that draws lines by itself (its integrator is npr_lines) clashes the same way.
+    lines = write_scene(BODY, name="drawn.xml", integrator='<integrator type="npr_lines"/>')
+    with pytest.raises(mi_npr.ParameterError, match="drawn/v and drawn/v_lines would both"):
+        _run(lines, out, views=str(views))
+    # render a.xml a_lines.xml --lines: one folder, the same clash between scenes.
+    a = write_scene(BODY, name="a.xml")
+    b = write_scene(BODY, name="a_lines.xml")
+    code, err = _main(["render", str(a), str(b), "-o", str(tmp_path / "r"), "--lines"], capsys)
+    assert code == 1 and "Traceback" not in err
+    assert err.strip() == (f"mi-npr: error: {a} and {b} would both write "
+                           f"{tmp_path / 'r' / 'a_lines.png'}: rename one of them")  # fmt: skip
+    assert not list((tmp_path / "r").iterdir())
+    code, err = _main(["render", str(a), str(b), "-o", str(tmp_path / "r"), "--no-progress"],
+                      capsys)  # fmt: skip
+    assert code == 0, err
