@@ -26,10 +26,13 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import hashlib
 import itertools
+import json
 import logging
 import os
 import socket
+import stat
 import sys
 import threading
 import time
@@ -48,6 +51,7 @@ from tqdm import tqdm
 
 from . import io
 from ._variant import set_variant
+from ._version import __version__
 from .camera import camera_of, resolve, sensor_for
 from .compose import raw_beauty
 from .drawings import DRAWINGS, of_plugin, split_params
@@ -295,11 +299,13 @@ POLL = 0.2
 
 @dataclass(frozen=True)
 class Job:
-    """One scene x one view: ``id`` is ``<scene stem>/<view id>``."""
+    """One scene x one view: ``id`` is ``<scene stem>/<view id>``; ``key`` what makes two
+    renders of it equal (:func:`job_key`), compared by ``resume``."""
 
     scene: str
     scene_hash: str
     view: str
+    key: str = ""
 
     @property
     def stem(self) -> str:
@@ -348,6 +354,20 @@ class BatchSettings:
             "line_color": list(self.line_color) if self.line_color else None,
             "paper": list(self.paper) if self.paper else None,
         }
+
+
+def job_key(settings: BatchSettings, job: Job) -> str:
+    """What ``resume`` compares, as ``sha256:<hex>``: the scene's content hash (the file and
+    every file it references, ``$name`` resolved by the defines), the settings of
+    :meth:`BatchSettings.flags` (defines, drawings and their parameters, size, spp, seed,
+    variant, colours), the view (a given camera's values; else the view spec, whose cameras
+    follow from the scene) and the mi-npr version."""
+    flags = settings.flags()
+    camera = settings.views.camera(job.view)
+    flags["views"] = camera.to_dict() if camera is not None else settings.views.text
+    data = {"scene": job.scene_hash, "flags": flags, "view": job.view, "version": __version__}
+    text = json.dumps(data, sort_keys=True, allow_nan=False, default=str)
+    return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
 _JOB_LOCK = threading.Lock()  # one job at a time per process (output sets, the render lock)
@@ -401,6 +421,8 @@ def _row(settings: BatchSettings, job: Job, attempt: int, **fields: Any) -> dict
     """A manifest row of ``job``, failed until a render fills it in (``fields`` override)."""
     return {
         "job": job.id,
+        "key": job.key,
+        "version": __version__,
         "scene": job.scene,
         "scene_hash": job.scene_hash,
         "view": job.view,
@@ -478,6 +500,7 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
                 result, outdir, job.view, line_color=settings.line_color, paper=settings.paper
             )
             row["outputs"] = [os.path.relpath(p, settings.outdir) for p in written]
+            row["sizes"] = [os.stat(p).st_size for p in written]
             row["status"] = "done"
             row["warning"] = _view_warning(job, result.gbuffer)
         except NprError as e:
@@ -489,15 +512,43 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
     return row
 
 
-def _done(row: Mapping[str, Any], job: Job, flags: Mapping[str, Any], outdir: Path) -> bool:
-    """Whether a manifest row shows ``job`` done with these flags, its outputs still there."""
-    return (
-        row.get("status") == "done"
-        and row.get("scene_hash") == job.scene_hash
-        and row.get("flags") == flags
-        and bool(row.get("outputs"))
-        and all((outdir / p).is_file() for p in row["outputs"])
-    )
+def inside(outdir: Path, name: Any) -> Path | None:
+    """``outdir / name`` when ``name`` is a relative path that stays inside ``outdir`` (no
+    ``..``, not absolute, no link leading out), else ``None``: a manifest row never makes
+    mi-npr read, trust or remove a file elsewhere."""
+    if not isinstance(name, str) or not name or os.path.isabs(name):
+        return None
+    parts = Path(name).parts
+    if ".." in parts:
+        return None
+    p = outdir / name
+    root = os.path.realpath(outdir)
+    if os.path.commonpath([root, os.path.realpath(p)]) != root:
+        return None
+    return p
+
+
+def _done(row: Mapping[str, Any], job: Job, outdir: Path) -> bool:
+    """Whether a manifest row shows ``job`` done with the same key (:func:`job_key`), every
+    output still inside ``outdir`` with the size the row recorded."""
+    outputs, sizes = row.get("outputs"), row.get("sizes")
+    if row.get("status") != "done" or row.get("key") != job.key:
+        return False
+    if not isinstance(outputs, list) or not outputs or not isinstance(sizes, list):
+        return False
+    if len(sizes) != len(outputs):
+        return False
+    for name, size in zip(outputs, sizes, strict=True):
+        p = inside(outdir, name)
+        if p is None or isinstance(size, bool) or not isinstance(size, int):
+            return False
+        try:
+            st = os.stat(p)
+        except OSError:
+            return False
+        if not stat.S_ISREG(st.st_mode) or st.st_size != size:
+            return False
+    return True
 
 
 def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
@@ -633,13 +684,15 @@ def run(
     )
     manifest = outdir / MANIFEST
     check_manifest(manifest)
-    flags = settings.flags()
+    jobs = [replace(j, key=job_key(settings, j)) for j in jobs]
+    earlier: dict[str, list[dict[str, Any]]] = {}
+    for r in read_rows(manifest):
+        earlier.setdefault(str(r.get("job")), []).append(r)
     rows: dict[str, dict[str, Any]] = {}
     if resume:
-        last = {r.get("job"): r for r in read_rows(manifest)}
         for job in jobs:
-            r = last.get(job.id)
-            if r is not None and _done(r, job, flags, outdir):
+            r = earlier.get(job.id, [None])[-1]
+            if r is not None and _done(r, job, outdir):
                 rows[job.id] = r
     pending = [j for j in jobs if j.id not in rows]
     bar: Any = None
@@ -649,6 +702,8 @@ def run(
     def record(row: dict[str, Any]) -> None:
         append_row(manifest, row)
         rows[row["job"]] = row
+        if row["status"] == "done":
+            _remove_replaced(outdir, row, earlier.get(row["job"], []), jobs, flat)
         if row["status"] != "done":
             message = f"mi-npr: error: {row['error']}"
         elif row.get("warning"):
@@ -669,7 +724,77 @@ def run(
     finally:
         if bar is not None:
             bar.close()
+    _warn_left(outdir, earlier, jobs, flat)
     return [rows[j.id] for j in jobs if j.id in rows]
+
+
+def _claimed(name: str, jobs: Sequence[Job], flat: bool) -> bool:
+    """Whether a file ``name`` (relative to OUT) may be one that a job of this run writes:
+    it is in a job's folder and starts with its view id (every name the writer gives does,
+    :func:`job_files`)."""
+    folder, _, base = name.replace(os.sep, "/").rpartition("/")
+    return any((flat or folder == j.stem) and base.startswith(j.view) for j in jobs)
+
+
+def _remove_replaced(
+    outdir: Path,
+    row: Mapping[str, Any],
+    before: Sequence[Mapping[str, Any]],
+    jobs: Sequence[Job],
+    flat: bool,
+) -> None:
+    """The files of a job's earlier sets (its earlier rows) that its new set does not hold:
+    removed with the set (a ``--resume`` without ``--lines`` leaves no old drawing), unless a
+    job of this run may write that name, which a warning names instead."""
+    new = set(row.get("outputs") or [])
+    old = {n for r in before if isinstance(r.get("outputs"), list) for n in r["outputs"]}
+    kept = []
+    for name in sorted(n for n in old - new if isinstance(n, str)):
+        p = inside(outdir, name)
+        if p is None or not p.is_file():
+            continue
+        others = [j for j in jobs if j.id != row.get("job")]
+        if _claimed(name, others, flat):
+            kept.append(name)
+            continue
+        with contextlib.suppress(OSError):
+            p.unlink()
+    if kept:
+        warnings.warn(
+            f"{row.get('job')}: files of its earlier set left in {outdir}: {', '.join(kept)}",
+            NprWarning,
+            stacklevel=4,
+        )
+
+
+def _warn_left(
+    outdir: Path,
+    earlier: Mapping[str, Sequence[Mapping[str, Any]]],
+    jobs: Sequence[Job],
+    flat: bool,
+) -> None:
+    """A warning naming the files of earlier jobs that this run does not have, beside its
+    own (frames of a longer path, the views of a larger orbit): they are no part of this
+    set."""
+    ids = {j.id for j in jobs}
+    folders = {"" if flat else j.stem for j in jobs}
+    left: list[str] = []
+    for job, rs in earlier.items():
+        if job in ids:
+            continue
+        for name in rs[-1].get("outputs") or []:
+            p = inside(outdir, name)
+            folder = os.path.dirname(name) if isinstance(name, str) else None
+            if p is not None and folder in folders and p.is_file():
+                left.append(name)
+    if left:
+        shown = ", ".join(sorted(left)[:4]) + (", ..." if len(left) > 4 else "")
+        warnings.warn(
+            f"{outdir}: {len(left)} files of earlier jobs that this run does not have are "
+            f"left beside its outputs ({shown})",
+            NprWarning,
+            stacklevel=3,
+        )
 
 
 def _run_here(settings: BatchSettings, jobs: Sequence[Job], retries: int, record: Callable) -> None:

@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import math
 import os
+import re
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -45,7 +47,7 @@ from . import layers as L
 from .batch import run
 from .camera import Camera, orbit, read_cameras, resolve, rotate, sensor_for, to_json
 from .coherence import line_variants, popping
-from .errors import ParameterError, SceneError
+from .errors import NprWarning, ParameterError, SceneError
 from .gbuffer import GBuffer
 from .io import read_exr, write_layered_outputs, write_text
 from .io.frames import check_format, frame_image, write_coherence, write_video
@@ -543,6 +545,8 @@ def render_frames(
     if bar is not None:
         bar.close()
     files.append(write_text(outdir / "path.json", to_json(cams)))
+    if cluster is None:  # the batch names the files of its earlier jobs itself
+        _warn_other_frames(outdir, len(cams))
     layer = L.LINES if L.LINES in kept[0] else L.CONTOUR if L.CONTOUR in kept[0] else None
     coherence = None
     curves = line_variants(kept) if variants else None
@@ -560,6 +564,25 @@ def render_frames(
                 videos.append(write_video(outdir / f"{name}.{video}", images, fps=fps))
     files += videos
     return Frames(files, kept, coherence, videos)
+
+
+_FRAME = re.compile(r"^frame_(\d{4,})[._]")
+
+
+def _warn_other_frames(outdir: Path, frames: int) -> None:
+    """A warning naming the frame files of an earlier, longer path left in ``outdir`` (they
+    are not part of this path: ``path.json``, the coherence and the videos leave them out)."""
+    left = sorted(
+        e.name for e in os.scandir(outdir) if (m := _FRAME.match(e.name)) and int(m[1]) >= frames
+    )
+    if left:
+        shown = ", ".join(left[:4]) + (", ..." if len(left) > 4 else "")
+        warnings.warn(
+            f"{outdir}: frame files of an earlier, longer path are left beside this path's "
+            f"{frames} frames: {shown}",
+            NprWarning,
+            stacklevel=3,
+        )
 
 
 def _frames_as_jobs(

@@ -238,3 +238,63 @@ def test09_two_jobs_writing_one_file_are_refused_before_rendering(write_scene, t
     code, err = _main(["render", str(a), str(b), "-o", str(tmp_path / "r"), "--no-progress"],
                       capsys)  # fmt: skip
     assert code == 0, err
+
+
+# -- resume by content -------------------------------------------------------------------------
+
+TRIANGLE = "v {} 0 3\nv 1 0 3\nv 0 1 3\nf 1 2 3\n"
+
+
+def _redone(out, n: int) -> list[str]:
+    """The jobs of the rows after the first ``n`` of the manifest."""
+    return [r["job"] for r in list(read_rows(out / "manifest.jsonl"))[n:]]
+
+
+def test10_resume_redoes_an_edited_camera_file_and_a_replaced_define_mesh(write_scene, tmp_path):
+    (tmp_path / "a.obj").write_text(TRIANGLE.format(-1))
+    body = ('<default name="mesh" value="a.obj"/>'
+            '<shape type="obj"><string name="filename" value="$mesh"/></shape>')  # fmt: skip
+    path = write_scene(body, width=16, height=12)
+    views = tmp_path / "views.json"
+    cams = [{"id": f"c{k}", "origin": [0.1 * k, 0, 0], "target": [0, 0, 3]} for k in range(3)]
+    views.write_text(json.dumps(cams))
+    out = tmp_path / "out"
+    rows = _run(path, out, views=str(views))
+    assert [r["status"] for r in rows] == ["done"] * 3
+    n = 3
+    _run(path, out, views=str(views), resume=True)
+    assert _redone(out, n) == []
+    cams[1]["origin"] = [0.5, 0, 0]  # the file edited in place: that camera only
+    views.write_text(json.dumps(cams))
+    _run(path, out, views=str(views), resume=True)
+    assert _redone(out, n) == ["scene/c1"]
+    n += 1
+    (tmp_path / "a.obj").write_text(TRIANGLE.format(-2))  # the mesh named by $mesh, replaced
+    _run(path, out, views=str(views), resume=True)
+    assert _redone(out, n) == ["scene/c0", "scene/c1", "scene/c2"]
+    n += 3
+    # An output cut short (its size differs from the row's): that job again.
+    exr = out / "scene" / "c2.exr"
+    exr.write_bytes(exr.read_bytes()[:-1])
+    _run(path, out, views=str(views), resume=True)
+    assert _redone(out, n) == ["scene/c2"]
+
+
+def test11_a_new_set_leaves_no_file_of_the_old_one_unnamed(write_scene, tmp_path):
+    """--resume without --lines: the job's old drawing goes with its old set. A smaller
+    orbit into a larger one's folder: a warning names the files it does not own."""
+    path = write_scene(BODY, width=16, height=12)
+    out = tmp_path / "out"
+    _run(path, out, views="orbit:3", drawings=["lines"])
+    assert (out / "scene" / "orbit_000_lines.svg").is_file()
+    with pytest.warns(mi_npr.errors.NprWarning) as caught:
+        rows = _run(path, out, views="orbit:2", resume=True)
+    assert [r["status"] for r in rows] == ["done", "done"]
+    assert sorted(p.name for p in (out / "scene").iterdir()) == [
+        "orbit_000.exr", "orbit_000.png", "orbit_001.exr", "orbit_001.png",
+        "orbit_002.exr", "orbit_002.png", "orbit_002_lines.png", "orbit_002_lines.svg",
+    ]  # fmt: skip
+    (warning,) = [str(w.message) for w in caught]
+    assert warning == (f"{out}: 4 files of earlier jobs that this run does not have are left "
+                       "beside its outputs (scene/orbit_002.exr, scene/orbit_002.png, "
+                       "scene/orbit_002_lines.png, scene/orbit_002_lines.svg)")  # fmt: skip
