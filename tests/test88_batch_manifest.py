@@ -298,3 +298,38 @@ def test11_a_new_set_leaves_no_file_of_the_old_one_unnamed(write_scene, tmp_path
     assert warning == (f"{out}: 4 files of earlier jobs that this run does not have are left "
                        "beside its outputs (scene/orbit_002.exr, scene/orbit_002.png, "
                        "scene/orbit_002_lines.png, scene/orbit_002_lines.svg)")  # fmt: skip
+
+
+# -- a manifest that is always readable --------------------------------------------------------
+
+
+def test12_cut_lines_bad_rows_and_outputs_outside_out(write_scene, tmp_path):
+    path = write_scene(BODY, width=16, height=12)
+    out = tmp_path / "out"
+    manifest = out / "manifest.jsonl"
+    rows = _run(path, out, views="orbit:2")
+    # A disk that filled mid-line, then the next run: its row starts on a line of its own.
+    with open(manifest, "ab") as f:
+        f.write(b'{"job": "scene/orbit_000", "sta')
+    append_row(manifest, {"job": "x", "status": "failed"})
+    lines = manifest.read_bytes().split(b"\n")
+    assert lines[2] == b'{"job": "scene/orbit_000", "sta' and json.loads(lines[3])["job"] == "x"
+    # A row with a wrong-typed field, a nesting too deep for Python's JSON reader, a row whose
+    # outputs name a file outside OUT (a copy of orbit_001's EXR, size and key as recorded).
+    bad = {**rows[0], "sizes": "big"}
+    outside = tmp_path / "elsewhere.exr"
+    outside.write_bytes((out / rows[1]["outputs"][0]).read_bytes())
+    escaped = {**rows[1], "outputs": ["../elsewhere.exr"], "sizes": [outside.stat().st_size]}
+    with open(manifest, "ab") as f:
+        f.write(json.dumps(bad).encode() + b"\n" + b"[" * 200_000 + b"\n")
+        f.write(json.dumps(escaped).encode() + b"\n")
+    with pytest.warns(mi_npr.errors.NprWarning) as caught:
+        again = _run(path, out, views="orbit:2", resume=True)
+    said = [str(w.message) for w in caught]
+    assert said == [f"{manifest}:3: row skipped: not JSON (JSONDecodeError)",
+                    f"{manifest}:5: row skipped: 'sizes' is a str",
+                    f"{manifest}:6: row skipped: not JSON (RecursionError)"]  # fmt: skip
+    assert again[0] == rows[0]  # skipped: its last readable row is the done one
+    assert again[1] != rows[1] and again[1]["status"] == "done"  # outside OUT: done again
+    with pytest.warns(mi_npr.errors.NprWarning):  # the same three lines, still there
+        assert [r["job"] for r in read_rows(manifest)][-1] == "scene/orbit_001"

@@ -3,8 +3,10 @@
 One JSON object per line, one line per finished or failed job, appended by one process (the
 batch's client) with ``O_APPEND`` and a single ``write()`` of the whole line followed by
 ``fsync``: a line is in the file whole or not at all, and lines of concurrent writers never
-interleave. A reader skips a line that does not parse (a disk that filled mid-line), so a
-manifest is always readable; the last line of a job wins.
+interleave. A line cut short (a disk that filled mid-line) ends without a newline; the next
+row written starts with one, so it is never glued onto the cut line. A reader skips a line
+that does not parse, or whose fields have the wrong types (:data:`FIELDS`), with a warning
+naming the line, so a manifest is always readable; the last line of a job wins.
 """
 
 from __future__ import annotations
@@ -13,14 +15,58 @@ import hashlib
 import json
 import os
 import stat
+import warnings
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from ..errors import OutputError, ParameterError
+from ..errors import NprWarning, OutputError, ParameterError
 from ..scene import scene_files
 
 MANIFEST = "manifest.jsonl"
+
+_OPTIONAL_STR = (str, type(None))
+#: The types of a row's fields (a field may be absent; ``outputs`` and ``retried`` hold
+#: strings, ``sizes`` integers; ``bool`` is no integer here).
+FIELDS: dict[str, tuple[type, ...]] = {
+    "job": (str,),
+    "status": (str,),
+    "key": (str,),
+    "version": (str,),
+    "scene": (str,),
+    "scene_hash": (str,),
+    "view": (str,),
+    "outputs": (list,),
+    "sizes": (list,),
+    "retried": (list,),
+    "attempt": (int,),
+    "seconds": (int, float, type(None)),
+    "error": _OPTIONAL_STR,
+    "warning": _OPTIONAL_STR,
+    "worker": _OPTIONAL_STR,
+    "finished": _OPTIONAL_STR,
+    "camera": (dict, type(None)),
+    "flags": (dict,),
+}
+_ITEMS = {"outputs": str, "retried": str, "sizes": int}
+
+
+def row_problem(row: Any) -> str | None:
+    """Why ``row`` is no manifest row (:data:`FIELDS`), or ``None``."""
+    if not isinstance(row, dict):
+        return f"a {type(row).__name__}, not an object"
+    if "job" not in row:
+        return "no 'job'"
+    for name, types in FIELDS.items():
+        if name not in row:
+            continue
+        v = row[name]
+        if isinstance(v, bool) or not isinstance(v, types):
+            return f"{name!r} is a {type(v).__name__}"
+        item = _ITEMS.get(name)
+        if item is not None and not all(isinstance(x, item) and not isinstance(x, bool) for x in v):
+            return f"{name!r} holds something other than {item.__name__}s"
+    return None
 
 
 def _open_regular(path: str | os.PathLike[str], flags: int, what: str) -> int:
@@ -55,8 +101,11 @@ def check_manifest(path: str | os.PathLike[str]) -> None:
 def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
     """Append ``row`` as one JSON line to ``path`` atomically (module docstring)."""
     data = (json.dumps(row, sort_keys=True, allow_nan=False, default=str) + "\n").encode()
-    fd = _open_regular(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, "write")
+    fd = _open_regular(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, "write")
     try:
+        size = os.fstat(fd).st_size
+        if size and os.pread(fd, 1, size - 1) != b"\n":  # a line cut short: start a new one
+            data = b"\n" + data
         n = os.write(fd, data)
         if n != len(data):  # a full disk: the reader skips the partial line
             raise OutputError(f"{path}: manifest line cut short (disk full?)")
@@ -68,19 +117,26 @@ def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
 
 
 def read_rows(path: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:
-    """The rows of a manifest in file order (none if it does not exist); bad lines skipped."""
+    """The rows of a manifest in file order (none if it does not exist); a line that does not
+    parse or is no row (:func:`row_problem`) is skipped with a
+    :class:`~mi_npr.errors.NprWarning` naming it (``manifest.jsonl:7: ...``)."""
     try:
         f = os.fdopen(_open_regular(path, os.O_RDONLY, "read"), "rb")
     except FileNotFoundError:
         return
     with f:
-        for line in f:
+        for number, line in enumerate(f, 1):
+            if not line.strip():
+                continue
             try:
                 row = json.loads(line)
-            except (json.JSONDecodeError, UnicodeDecodeError):
-                continue
-            if isinstance(row, dict):
+                why = row_problem(row)
+            except (ValueError, RecursionError) as e:  # RecursionError: nesting too deep
+                why = f"not JSON ({type(e).__name__})"
+            if why is None:
                 yield row
+            else:
+                warnings.warn(f"{path}:{number}: row skipped: {why}", NprWarning, stacklevel=2)
 
 
 def scene_hash(path: str | os.PathLike[str], defines: Mapping[str, Any] | None = None) -> str:
