@@ -1,18 +1,26 @@
 """Atomic writes: every output goes to a temporary name in the target directory and is renamed
 into place only once complete, so a crash or a bad input never leaves a half-written file.
 
-Temporary names carry the writing process's PID (``.NAME.PID.XXXXXXXX.tmp``); they are
-removed on every exit path (exceptions, ``atexit``, SIGTERM through the CLI), and those of a run
-that was killed outright (SIGKILL) are swept by the next run that writes to the same directory.
-:func:`output_set` replaces a set of outputs (EXR, PNGs, SVG, XML) all together or not at all.
+Temporary names carry the writing process's PID and :data:`OWNER`, a digest of its host name
+and PID namespace (``.NAME.PID.OWNER.XXXXXXXX.tmp``); they are removed on every exit path
+(exceptions, ``atexit``, SIGTERM through the CLI), and those of a run that was killed outright
+(SIGKILL) are swept by the next run that writes to the same directory, only when certainly
+stale: written on this host in this PID namespace by a PID that is gone, or untouched for
+:data:`STALE_AFTER` seconds whoever wrote them. A PID of another host or container means
+nothing here (on the shared storage of a cluster, or in containers, that PID may be a live
+writer), so such a file, and a name of an older version without the owner, waits for the age
+bound. :func:`output_set` replaces a set of outputs (EXR, PNGs, SVG, XML) all together or not
+at all.
 """
 
 from __future__ import annotations
 
 import atexit
 import contextlib
+import hashlib
 import os
 import re
+import socket
 import stat
 import tempfile
 import time
@@ -60,16 +68,32 @@ def _check_target(target: Path) -> None:
         raise OutputError(f"{target}: not a regular file")
 
 
+def _owner() -> str:
+    try:
+        namespace = os.readlink("/proc/self/ns/pid")
+    except OSError:
+        namespace = ""
+    return hashlib.sha256(f"{socket.gethostname()}\0{namespace}".encode()).hexdigest()[:12]
+
+
+#: This host and PID namespace, as 12 hex digits in every temporary name (module docstring).
+OWNER = _owner()
+#: Seconds after which a temporary file is stale whoever wrote it: a live writer renames its
+#: files when its output set is complete, seconds after writing them.
+STALE_AFTER = 3600.0
+
 #: This process's temporary files not yet renamed into place (removed at exit, on SIGTERM).
 _LIVE: set[str] = set()
 #: Open output sets (:func:`output_set`), innermost last: their (temp, target) pairs.
 _SETS: list[list[tuple[str, Path]]] = []
 #: Directories already swept for stale temporary files by this process.
 _SWEPT: set[str] = set()
-#: When this process started (roughly: when mi-npr was imported).
-_STARTED = time.time()
-# ".NAME.PID.XXXXXXXX.tmp" (this version) and ".NAME.XXXXXXXX.tmp" (before the PID was added).
-_TEMP = re.compile(r"^\.(?P<name>.+?)\.(?:(?P<pid>\d+)\.)?(?P<rand>[a-z0-9_]{8})\.tmp$")
+# ".NAME.PID.OWNER.XXXXXXXX.tmp" (this version), ".NAME.PID.XXXXXXXX.tmp" and
+# ".NAME.XXXXXXXX.tmp" (older versions).
+_TEMP = re.compile(
+    r"^\.(?P<name>.+?)\.(?:(?P<pid>\d+)\.(?:(?P<owner>[0-9a-f]{12})\.)?)?"
+    r"(?P<rand>[a-z0-9_]{8})\.tmp$"
+)
 
 
 def temp_name_pid(name: str) -> int | bool | None:
@@ -79,6 +103,13 @@ def temp_name_pid(name: str) -> int | bool | None:
     if not m:
         return False
     return int(m["pid"]) if m["pid"] else None
+
+
+def temp_name_owner(name: str) -> str | None:
+    """The :data:`OWNER` in a temporary file name of this tool (``None``: an older name, or
+    not one of ours)."""
+    m = _TEMP.match(name)
+    return m["owner"] if m else None
 
 
 def _alive(pid: int) -> bool:
@@ -94,9 +125,10 @@ def _alive(pid: int) -> bool:
 
 
 def clean_stale(directory: str | os.PathLike[str]) -> list[Path]:
-    """Remove this tool's temporary files in ``directory`` left by runs that were killed
-    (SIGKILL, power loss): those whose PID is dead, and old-style names without a PID that are
-    older than this process. Returns what was removed; errors are ignored (best effort)."""
+    """Remove this tool's temporary files in ``directory`` that are certainly stale (module
+    docstring): this host and PID namespace's whose PID is gone (or is this process, which
+    does not use them), and any untouched for :data:`STALE_AFTER` seconds. Returns what was
+    removed; errors are ignored (best effort)."""
     removed: list[Path] = []
     try:
         entries = list(os.scandir(directory))
@@ -109,8 +141,9 @@ def clean_stale(directory: str | os.PathLike[str]) -> list[Path]:
         try:
             if not e.is_file(follow_symlinks=False):
                 continue
-            stale = (not _alive(pid)) if pid is not None else e.stat().st_mtime < _STARTED
-            if stale or (pid == os.getpid()):
+            ours = pid is not None and temp_name_owner(e.name) == OWNER
+            stale = (not _alive(pid) or pid == os.getpid()) if ours else False
+            if stale or time.time() - e.stat(follow_symlinks=False).st_mtime >= STALE_AFTER:
                 os.unlink(e.path)
                 removed.append(Path(e.path))
         except OSError:
@@ -167,7 +200,8 @@ def output_set() -> Iterator[None]:
 def atomic_output(path: str | os.PathLike[str]) -> Iterator[str]:
     """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds
     (inside an :func:`output_set`, at the set's end). The temporary name is
-    ``.NAME.PID.XXXXXXXX.tmp``; stale ones of killed runs are swept from the directory first."""
+    ``.NAME.PID.OWNER.XXXXXXXX.tmp``; stale ones of killed runs are swept from the directory
+    first."""
     target = Path(path)
     parent = target.parent if str(target.parent) else Path(".")
     check_writable_dir(parent)
@@ -178,7 +212,7 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[str]:
         clean_stale(parent)
     try:
         fd, tmp = tempfile.mkstemp(
-            prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=parent
+            prefix=f".{target.name}.{os.getpid()}.{OWNER}.", suffix=".tmp", dir=parent
         )
     except OSError as e:
         raise OutputError(f"{target}: cannot write ({e.strerror or e})") from None
