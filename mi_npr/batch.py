@@ -34,6 +34,7 @@ import os
 import socket
 import stat
 import sys
+import tempfile
 import threading
 import time
 import warnings
@@ -133,10 +134,6 @@ def job_files(
     beside it: a 4 x 4 render of a sphere with those drawings is written once per process into
     a temporary folder. Every name the writer gives starts with the stem (checked here), so
     two stems can only clash when one is a prefix of the other (:func:`check_outputs`)."""
-    import tempfile  # imported here: only a batch whose stems could clash needs the probe
-
-    from .io import write_layered_outputs
-
     scene = mi.load_dict(
         {
             "type": "scene",
@@ -152,7 +149,7 @@ def job_files(
     )
     result = render_layers(scene, drawings, scene_drawings=False, spp=1)
     with tempfile.TemporaryDirectory(prefix="mi-npr-probe-") as d:
-        written = write_layered_outputs(result, d, _PROBE_STEM, only=only, svg_image=svg_image)
+        written = io.write_layered_outputs(result, d, _PROBE_STEM, only=only, svg_image=svg_image)
     names = [p.name for p in written]
     if not all(n.startswith(_PROBE_STEM) for n in names):
         raise RuntimeError(f"the writer names files without their stem: {names}")
@@ -860,7 +857,7 @@ def _connect(scheduler: str) -> Any:
     """A ``distributed.Client`` of the scheduler at ``scheduler``, or a :class:`ParameterError`
     naming ``--scheduler`` within Dask's connect timeout: a malformed address, nothing
     listening, a silent port, or a peer that is no Dask scheduler (an HTTP server)."""
-    import asyncio
+    import asyncio  # imported here, with Dask: only a batch on a running scheduler needs it
 
     import dask  # imported here: see _worker_name
     from dask.utils import parse_timedelta
