@@ -216,3 +216,20 @@ def test12_numpy_values_and_a_defines_mapping_fill_defaults():
     assert gb.shape == (6, 8)
     with pytest.raises(mi_npr.ParameterError, match="defines: expected a mapping"):
         mi_npr.render(SCENES / "scene2.xml", defines=["width=8"])
+
+
+def test13_empty_output_folder_and_empty_glob_are_refused(ball, tmp_path, capsys, monkeypatch):
+    """``-o ''`` is no folder (it used to write into the current one); ``--only ''`` selects
+    no object on purpose (it used to mean every object)."""
+    monkeypatch.chdir(tmp_path)
+    for command in (["render", str(ball)], ["batch", str(ball), "--workers", "0"]):
+        assert cli.main([*command, "-o", "", "--no-progress"]) == 1
+        err = capsys.readouterr().err.strip()
+        assert (
+            err == "mi-npr: error: output directory '': an empty name (give a folder, e.g. -o out)"
+        )
+    assert sorted(os.listdir(tmp_path)) == ["ball.xml"]  # nothing written here
+    with pytest.raises(SystemExit) as e:
+        cli.main(["render", str(ball), "-o", "out", "--contours", "--only", ""])
+    assert e.value.code == 2
+    assert "argument --only: an empty pattern" in capsys.readouterr().err

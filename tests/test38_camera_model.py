@@ -291,3 +291,27 @@ def test14_camera_package_imports_nothing_above_it():
                 assert top in allowed, f"{f.name} imports mi_npr.{node.module}"
             if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
                 assert not node.module.startswith("mi_npr"), f"{f.name}: {node.module}"
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"origin": [0, 0, -1e39]}, "origin = .*: expected 3 finite numbers"),  # inf in float32
+        ({"origin": [True, 0, 0]}, "origin = .*: expected 3 finite numbers"),
+        ({"target": ["1", "2", "3"]}, "target = .*: expected 3 finite numbers"),
+        ({"origin": [0, 0, 3e38], "target": [0, 0, -3e38]}, "too far apart \\(float32\\)"),
+        ({"origin": [1, 1, 1], "target": [1, 1, 1 + 1e-10]}, "the same point"),  # in float32
+    ],
+)
+def test15_cameras_are_checked_as_mitsuba_sees_them(fields, message):
+    """Mitsuba computes in float32: an origin of -1e39 would be infinite, the camera NaN."""
+    values = {"origin": [0, 0, -4], "target": [0, 0, 0], **fields}
+    with pytest.raises(ParameterError, match=message):
+        C.Camera.checked("keys.json: camera 0", **values)
+
+
+def test16_a_camera_file_nested_too_deeply_is_one_error(tmp_path):
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 200_000 + "]" * 200_000)
+    with pytest.raises(ParameterError, match=r"deep.json: not a JSON file of cameras \(nested"):
+        C.read_cameras(deep)

@@ -91,6 +91,14 @@ def _define(text: str) -> tuple[str, str]:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def _glob(text: str) -> str:
+    """A shell glob of ``--only``/``--ignore``: an empty one would select nothing on purpose
+    yet mean every object (the library's empty selection), so it is refused."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty pattern (give a glob such as 'sphere*')")
+    return text
+
+
 def _size(text: str) -> str:
     try:
         parse_size(text)
@@ -237,7 +245,7 @@ def add_drawings(
         text = f"{takers}: {p.doc} (default: the scene's, else {shown!s})"
         if name in REPEATABLE:
             group.add_argument(
-                flag(name), dest=f"p_{name}", action="append", metavar="GLOB", help=text
+                flag(name), dest=f"p_{name}", action="append", metavar="GLOB", help=text, type=_glob
             )
         else:
             who = DRAWINGS[entries[0][0]].plugin or entries[0][0]

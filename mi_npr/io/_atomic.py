@@ -41,7 +41,10 @@ _FILE_MODE = 0o666 & ~_umask()
 
 
 def check_writable_dir(directory: str | os.PathLike[str], create: bool = False) -> Path:
-    """``directory`` as a Path, created if asked; :class:`OutputError` if it cannot be written."""
+    """``directory`` as a Path, created if asked; :class:`OutputError` if it cannot be written
+    (an empty name too: it is no folder, not the current one)."""
+    if not os.fspath(directory):
+        raise OutputError("output directory '': an empty name (give a folder, e.g. -o out)")
     d = Path(directory)
     if create:
         try:
