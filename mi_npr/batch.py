@@ -8,18 +8,25 @@
 
 One job = one scene x one view, written to ``OUT/<scene stem>/<view id>.exr`` (+ the PNG/SVG
 files ``mi-npr render`` writes, :func:`mi_npr.io.write_layered_outputs`) by the worker, all
-together or none (atomic output sets). The worker returns the job's manifest row; only this
-process (the client) appends rows to ``OUT/manifest.jsonl`` (:mod:`mi_npr.io.manifest`), one
-line per finished or failed job, so a kill at any moment leaves whole lines and whole output
-sets. ``resume`` skips the jobs whose last row says ``done`` with the same scene hash and
-flags and whose outputs all exist; every other job runs again.
+together or none (atomic output sets). Before anything renders, the names every job would write
+(:func:`job_files`, read off the writer) are checked across jobs and scenes
+(:func:`check_outputs`): no file is written by two jobs. The worker returns the job's manifest
+row; only this process (the client) appends rows to ``OUT/manifest.jsonl``
+(:mod:`mi_npr.io.manifest`), one line per finished or failed job, so a kill at any moment
+leaves whole lines and whole output sets. ``resume`` skips a job only when its last row says
+``done`` with the run's :func:`job_key` (scene content with every referenced file, settings,
+the view's camera, mi-npr version) and every output it lists is inside OUT with the recorded
+size; every other job runs again, and the files of its earlier set that the new one does not
+write go with it.
 
 Workers keep the scenes they loaded (an LRU of :data:`SCENE_CACHE` scenes keyed by path, content
 hash and load settings) with their cameras, so a worker loads each scene once and its compiled
 kernels serve every view; jobs are submitted scene by scene. ``threads_per_worker`` caps each
 worker's Dr.Jit threads (``dr.set_thread_count``); a worker process runs one job at a time.
-A job that raises, or whose worker dies (Dask's ``KilledWorker``), is retried ``retries``
-times, then recorded as ``failed`` with a one-line error while the others go on.
+A job that raises, or whose worker dies (Dask's ``KilledWorker``), or that goes without
+progress past its bound (``job_timeout``; the client stops it and restarts its worker), is
+retried ``retries`` times, then recorded as ``failed`` with a one-line error while the others
+go on.
 """
 
 from __future__ import annotations
