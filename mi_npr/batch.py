@@ -295,7 +295,7 @@ CLUSTER_PARAMS: tuple[Param, ...] = (
 JOB_TIMEOUT = 300.0
 #: ... plus one second per this many samples (film pixels x spp) while it renders.
 SAMPLES_PER_SECOND = 1e4
-#: The Dask event topic of the jobs' progress (worker -> client).
+#: The Dask event topic of the jobs' progress (worker -> client), followed by the batch's tag.
 PROGRESS_TOPIC = "mi-npr-progress"
 #: How often the client looks for jobs past their bound (seconds).
 POLL = 0.2
@@ -342,6 +342,9 @@ class BatchSettings:
     #: seconds a job may go without progress (``None``: :data:`JOB_TIMEOUT` and the render's
     #: samples)
     job_timeout: float | None = None
+    #: the Dask event topic its jobs report their progress on (one per batch: two batches on
+    #: one client never mix their jobs' progress)
+    topic: str = PROGRESS_TOPIC
 
     def flags(self) -> dict[str, Any]:
         """What makes two renders of a job equal (compared by ``resume``), JSON-ready."""
@@ -461,7 +464,7 @@ def _progress(settings: BatchSettings, samples: int | None = None) -> None:
     except (ImportError, ValueError):
         return  # not on a Dask worker: nothing watches the job
     limit = settings.job_timeout or JOB_TIMEOUT + (samples or 0) / SAMPLES_PER_SECOND
-    worker.log_event(PROGRESS_TOPIC, {"key": str(key), "worker": worker.address, "limit": limit})
+    worker.log_event(settings.topic, {"key": str(key), "worker": worker.address, "limit": limit})
 
 
 def _samples(sensor: Any, spp: int | None) -> int:
@@ -958,6 +961,7 @@ def _watch(
     bound without progress: the task is cancelled, its worker restarted (a worker without a
     nanny is stopped), and the job retried or recorded as failed with the reason."""
     tag = f"{os.getpid()}-{time.time_ns()}"
+    settings = replace(settings, topic=f"{PROGRESS_TOPIC}-{tag}")
     attempts: dict[str, tuple[Job, int, Any]] = {}  # task key -> (job, attempt, future)
     earlier: dict[str, list[str]] = {}  # job id -> errors of its earlier attempts
     seen: dict[str, tuple[float, float, str]] = {}  # task key -> (last progress, bound, worker)
@@ -993,7 +997,7 @@ def _watch(
         record(row)
         return False
 
-    client.subscribe_topic(PROGRESS_TOPIC, on_progress)
+    client.subscribe_topic(settings.topic, on_progress)
     try:
         futures = as_completed([submit(j, 1, len(jobs) - i) for i, j in enumerate(jobs)])
         while attempts:
@@ -1021,7 +1025,7 @@ def _watch(
                 if not _stop_stalled(settings, client, attempts, seen, lock, finish):
                     time.sleep(POLL)
     finally:
-        client.unsubscribe_topic(PROGRESS_TOPIC)
+        client.unsubscribe_topic(settings.topic)
 
 
 def _stop_stalled(
