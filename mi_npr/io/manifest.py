@@ -11,6 +11,8 @@ naming the line, so a manifest is always readable; the last line of a job wins.
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import os
@@ -103,6 +105,11 @@ def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
     data = (json.dumps(row, sort_keys=True, allow_nan=False, default=str) + "\n").encode()
     fd = _open_regular(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, "write")
     try:
+        # Locked, so that the last byte read is that of a whole line of another writer, never
+        # of one still being copied in (where locks are not supported, the one client is the
+        # only writer anyway).
+        with contextlib.suppress(OSError):
+            fcntl.lockf(fd, fcntl.LOCK_EX)
         size = os.fstat(fd).st_size
         if size and os.pread(fd, 1, size - 1) != b"\n":  # a line cut short: start a new one
             data = b"\n" + data
