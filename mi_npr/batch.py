@@ -8,33 +8,49 @@
 
 One job = one scene x one view, written to ``OUT/<scene stem>/<view id>.exr`` (+ the PNG/SVG
 files ``mi-npr render`` writes, :func:`mi_npr.io.write_layered_outputs`) by the worker, all
-together or none (atomic output sets). The worker returns the job's manifest row; only this
-process (the client) appends rows to ``OUT/manifest.jsonl`` (:mod:`mi_npr.io.manifest`), one
-line per finished or failed job, so a kill at any moment leaves whole lines and whole output
-sets. ``resume`` skips the jobs whose last row says ``done`` with the same scene hash and
-flags and whose outputs all exist; every other job runs again.
+together or none (atomic output sets). Before anything renders, the names every job would write
+(:func:`job_files`, read off the writer) are checked across jobs and scenes
+(:func:`check_outputs`): no file is written by two jobs. The worker returns the job's manifest
+row; only this process (the client) appends rows to ``OUT/manifest.jsonl``
+(:mod:`mi_npr.io.manifest`), one line per finished or failed job, so a kill at any moment
+leaves whole lines and whole output sets. ``resume`` skips a job only when its last row says
+``done`` with the run's :func:`job_key` (scene content with every referenced file, settings,
+the view's camera, mi-npr version) and every output it lists is inside OUT with the recorded
+size; every other job runs again, and the files of its earlier set that the new one does not
+write go with it.
 
 Workers keep the scenes they loaded (an LRU of :data:`SCENE_CACHE` scenes keyed by path, content
 hash and load settings) with their cameras, so a worker loads each scene once and its compiled
 kernels serve every view; jobs are submitted scene by scene. ``threads_per_worker`` caps each
 worker's Dr.Jit threads (``dr.set_thread_count``); a worker process runs one job at a time.
-A job that raises, or whose worker dies (Dask's ``KilledWorker``), is retried ``retries``
-times, then recorded as ``failed`` with a one-line error while the others go on.
+A job that raises, or whose worker dies (Dask's ``KilledWorker``), or that goes without
+progress past its bound (``job_timeout``; the client stops it and restarts its worker), is
+retried ``retries`` times, then recorded as ``failed`` with a one-line error while the others
+go on.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import hashlib
+import itertools
+import json
 import logging
 import os
 import socket
+import stat
 import sys
+import tempfile
 import threading
 import time
+import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree as ET
 
 import drjit as dr
 import mitsuba as mi
@@ -43,14 +59,32 @@ from tqdm import tqdm
 
 from . import io
 from ._variant import set_variant
+from ._version import __version__
 from .camera import camera_of, resolve, sensor_for
 from .compose import raw_beauty
-from .drawings import split_params
-from .errors import NprError, ParameterError, SceneError, check_input_file, for_terminal, one_line
+from .drawings import DRAWINGS, of_plugin, split_params
+from .errors import (
+    NprError,
+    NprWarning,
+    ParameterError,
+    SceneError,
+    check_input_file,
+    for_terminal,
+    one_line,
+)
 from .io import check_writable_dir
-from .io.manifest import MANIFEST, append_row, read_rows, scene_hash
-from .params import MAX_RETRIES, MAX_THREADS, MAX_WORKERS, Param, check_arg, integer_range
+from .io.manifest import MANIFEST, append_row, check_manifest, read_rows, scene_hash
+from .params import (
+    MAX_RETRIES,
+    MAX_THREADS,
+    MAX_WORKERS,
+    Param,
+    check_arg,
+    integer_range,
+    real_range,
+)
 from .pipeline import render_layers
+from .scene import scene_files
 from .session import RENDER_PARAMS, SceneSession
 from .viewpoint.outputs import view_warning
 from .views import ViewSpec, cameras, parse_views
@@ -89,6 +123,94 @@ def check_unique_stems(paths: Sequence[str]) -> None:
         if stem in seen and seen[stem] != p:
             raise ParameterError(f"{seen[stem]} and {p} would both write outputs named {stem!r}")
         seen[stem] = p
+
+
+# -- the files of a job -----------------------------------------------------------------------
+
+#: The stem of the probe render whose files :func:`job_files` reads off.
+_PROBE_STEM = "STEM"
+
+
+@functools.lru_cache(maxsize=32)
+def job_files(
+    drawings: tuple[str, ...] = (), only: str | None = None, svg_image: str = "embed"
+) -> tuple[str, ...]:
+    """What :func:`mi_npr.io.write_layered_outputs` appends to a job's stem for every file it
+    writes with ``drawings`` on (and its ``only``, ``svg_image``): ``(".exr", ".png",
+    "_lines.png", "_lines.svg")`` for the lines. Read off the writer itself, not a list kept
+    beside it: a 4 x 4 render of a sphere with those drawings is written once per process into
+    a temporary folder. Every name the writer gives starts with the stem (checked here), so
+    two stems can only clash when one is a prefix of the other (:func:`check_outputs`)."""
+    scene = mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": {"type": "path", "max_depth": 2},
+            "ball": {"type": "sphere", "radius": 0.5},
+            "camera": {
+                "type": "perspective",
+                "to_world": mi.ScalarTransform4f().look_at([0, 0, -3], [0, 0, 0], [0, 1, 0]),
+                "film": {"type": "hdrfilm", "width": 4, "height": 4},
+            },
+        },
+        optimize=False,
+    )
+    result = render_layers(scene, drawings, scene_drawings=False, spp=1)
+    with tempfile.TemporaryDirectory(prefix="mi-npr-probe-") as d:
+        written = io.write_layered_outputs(result, d, _PROBE_STEM, only=only, svg_image=svg_image)
+    names = [p.name for p in written]
+    if not all(n.startswith(_PROBE_STEM) for n in names):
+        raise RuntimeError(f"the writer names files without their stem: {names}")
+    return tuple(n[len(_PROBE_STEM) :] for n in names)
+
+
+def scene_drawings(path: str | os.PathLike[str], defines: Mapping[str, Any] | None) -> set[str]:
+    """The drawings a scene draws on its own (its integrator is a drawing's plugin, in the
+    file or an include); every drawing when an integrator's type is a ``$define``."""
+    found: set[str] = set()
+    for xml in [Path(path), *(f for f in scene_files(path, defines) if f.suffix == ".xml")]:
+        try:
+            root = ET.parse(xml).getroot()
+        except (ET.ParseError, OSError, RecursionError):
+            continue
+        for el in root.iter("integrator"):
+            kind = el.get("type", "")
+            if "$" in kind:
+                return set(DRAWINGS)
+            d = of_plugin(kind)
+            if d is not None:
+                found.add(d.name)
+    return found
+
+
+def check_outputs(
+    jobs: Sequence[tuple[str, str | os.PathLike[str], str, Sequence[str]]],
+    *,
+    only: str | None = None,
+    svg_image: str = "embed",
+) -> None:
+    """A :class:`ParameterError` naming both jobs when two of ``jobs`` would write one file,
+    before anything renders. ``jobs``: ``(label, directory, stem, drawings)``; each writes the
+    files of :func:`job_files` in its directory (view ``v`` with the lines writes
+    ``v_lines.png``, the beauty of view ``v_lines`` too)."""
+    by_dir: dict[str, list[tuple[str, str, tuple[str, ...]]]] = {}
+    for label, directory, stem, drawings in jobs:
+        key = os.path.abspath(directory)
+        by_dir.setdefault(key, []).append((label, stem, tuple(sorted(drawings))))
+    for directory, entries in by_dir.items():
+        stems = sorted({stem for _, stem, _ in entries})
+        prefixed = any(b.startswith(a) for a, b in itertools.pairwise(stems))
+        if not prefixed and len(stems) == len(entries):
+            continue  # no stem begins another: no two names can be equal
+        owner: dict[str, str] = {}
+        for label, stem, drawings in entries:
+            for suffix in job_files(drawings, only, svg_image):
+                name = stem + suffix
+                if name in owner and owner[name] != label:
+                    raise ParameterError(
+                        f"{owner[name]} and {label} would both write "
+                        f"{os.path.join(directory, name)}: rename one of them"
+                    )
+                owner[name] = label
 
 
 def run_jobs(
@@ -158,16 +280,36 @@ CLUSTER_PARAMS: tuple[Param, ...] = (
         integer_range(1, MAX_THREADS),
     ),
     Param("retries", int, 0, "retries of a failed job", integer_range(0, MAX_RETRIES)),
+    Param(
+        "job_timeout",
+        float,
+        None,
+        "seconds a job may go without progress before it is stopped and its worker replaced "
+        "(default: 300, plus 1 per 10,000 samples while it renders)",
+        real_range(0.0, 1e7, open_lo=True),
+    ),
 )
+
+#: A job's bound without progress (:data:`CLUSTER_PARAMS` ``job_timeout``): this many seconds
+#: per step (loading the scene and placing the cameras, rendering, writing) ...
+JOB_TIMEOUT = 300.0
+#: ... plus one second per this many samples (film pixels x spp) while it renders.
+SAMPLES_PER_SECOND = 1e4
+#: The Dask event topic of the jobs' progress (worker -> client), followed by the batch's tag.
+PROGRESS_TOPIC = "mi-npr-progress"
+#: How often the client looks for jobs past their bound (seconds).
+POLL = 0.2
 
 
 @dataclass(frozen=True)
 class Job:
-    """One scene x one view: ``id`` is ``<scene stem>/<view id>``."""
+    """One scene x one view: ``id`` is ``<scene stem>/<view id>``; ``key`` what makes two
+    renders of it equal (:func:`job_key`), compared by ``resume``."""
 
     scene: str
     scene_hash: str
     view: str
+    key: str = ""
 
     @property
     def stem(self) -> str:
@@ -197,6 +339,12 @@ class BatchSettings:
     paper: tuple[float, ...] | None = None
     #: outputs in ``outdir`` itself, not ``outdir/<scene stem>`` (one scene: a camera path)
     flat: bool = False
+    #: seconds a job may go without progress (``None``: :data:`JOB_TIMEOUT` and the render's
+    #: samples)
+    job_timeout: float | None = None
+    #: the Dask event topic its jobs report their progress on (one per batch: two batches on
+    #: one client never mix their jobs' progress)
+    topic: str = PROGRESS_TOPIC
 
     def flags(self) -> dict[str, Any]:
         """What makes two renders of a job equal (compared by ``resume``), JSON-ready."""
@@ -213,6 +361,20 @@ class BatchSettings:
             "line_color": list(self.line_color) if self.line_color else None,
             "paper": list(self.paper) if self.paper else None,
         }
+
+
+def job_key(settings: BatchSettings, job: Job) -> str:
+    """What ``resume`` compares, as ``sha256:<hex>``: the scene's content hash (the file and
+    every file it references, ``$name`` resolved by the defines), the settings of
+    :meth:`BatchSettings.flags` (defines, drawings and their parameters, size, spp, seed,
+    variant, colours), the view (a given camera's values; else the view spec, whose cameras
+    follow from the scene) and the mi-npr version."""
+    flags = settings.flags()
+    camera = settings.views.camera(job.view)
+    flags["views"] = camera.to_dict() if camera is not None else settings.views.text
+    data = {"scene": job.scene_hash, "flags": flags, "view": job.view, "version": __version__}
+    text = json.dumps(data, sort_keys=True, allow_nan=False, default=str)
+    return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
 _JOB_LOCK = threading.Lock()  # one job at a time per process (output sets, the render lock)
@@ -266,6 +428,8 @@ def _row(settings: BatchSettings, job: Job, attempt: int, **fields: Any) -> dict
     """A manifest row of ``job``, failed until a render fills it in (``fields`` override)."""
     return {
         "job": job.id,
+        "key": job.key,
+        "version": __version__,
         "scene": job.scene,
         "scene_hash": job.scene_hash,
         "view": job.view,
@@ -288,14 +452,37 @@ def _view_warning(job: Job, gb: Any) -> str | None:
     return None if why is None else f"{job.id}: the view is probably useless: {why}"
 
 
+def _progress(settings: BatchSettings, samples: int | None = None) -> None:
+    """Tell the client (on Dask) that this worker's job made progress, and how long its next
+    step may take: ``job_timeout``, else :data:`JOB_TIMEOUT` plus ``samples`` /
+    :data:`SAMPLES_PER_SECOND` (the render of ``samples`` samples)."""
+    try:  # imported here: see _worker_name
+        from distributed import get_worker
+
+        worker = get_worker()
+        key = worker.get_current_task()
+    except (ImportError, ValueError):
+        return  # not on a Dask worker: nothing watches the job
+    limit = settings.job_timeout or JOB_TIMEOUT + (samples or 0) / SAMPLES_PER_SECOND
+    worker.log_event(settings.topic, {"key": str(key), "worker": worker.address, "limit": limit})
+
+
+def _samples(sensor: Any, spp: int | None) -> int:
+    w, h = (int(v) for v in sensor.film().crop_size())
+    return w * h * (spp or int(sensor.sampler().sample_count()))
+
+
 def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str, Any]:
     """Render and write one job; its manifest row (``status`` ``done`` or ``failed`` with a
-    one-line ``error``). Runs on a worker; never raises for a failing job."""
+    one-line ``error``). Runs on a worker; never raises for a failing job. On Dask it reports
+    its progress (:func:`_progress`) before each step, so the client can stop it when a step
+    takes longer than its bound."""
 
     t0 = time.perf_counter()
     row = _row(settings, job, attempt, worker=_worker_name())
     with _JOB_LOCK:
         try:
+            _progress(settings)
             _configure(settings)
             session, cams = _scene(settings, job)
             camera = cams[job.view]
@@ -305,6 +492,7 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
                 given = resolve(camera, session.sensor, settings.views.where(job.view))
                 sensor = sensor_for(given, session.sensor)
             row["camera"] = (camera or camera_of(session.sensor)).to_dict()
+            _progress(settings, _samples(sensor, session.spp))
             result = render_layers(
                 session.scene,
                 settings.drawings,
@@ -313,11 +501,13 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
                 spp=session.spp,
                 seed=settings.seed,
             )
+            _progress(settings)
             outdir = Path(settings.outdir) / ("" if settings.flat else job.stem)
             written = io.write_layered_outputs(
                 result, outdir, job.view, line_color=settings.line_color, paper=settings.paper
             )
             row["outputs"] = [os.path.relpath(p, settings.outdir) for p in written]
+            row["sizes"] = [os.stat(p).st_size for p in written]
             row["status"] = "done"
             row["warning"] = _view_warning(job, result.gbuffer)
         except NprError as e:
@@ -329,15 +519,43 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
     return row
 
 
-def _done(row: Mapping[str, Any], job: Job, flags: Mapping[str, Any], outdir: Path) -> bool:
-    """Whether a manifest row shows ``job`` done with these flags, its outputs still there."""
-    return (
-        row.get("status") == "done"
-        and row.get("scene_hash") == job.scene_hash
-        and row.get("flags") == flags
-        and bool(row.get("outputs"))
-        and all((outdir / p).is_file() for p in row["outputs"])
-    )
+def inside(outdir: Path, name: Any) -> Path | None:
+    """``outdir / name`` when ``name`` is a relative path that stays inside ``outdir`` (no
+    ``..``, not absolute, no link leading out), else ``None``: a manifest row never makes
+    mi-npr read, trust or remove a file elsewhere."""
+    if not isinstance(name, str) or not name or os.path.isabs(name):
+        return None
+    parts = Path(name).parts
+    if ".." in parts:
+        return None
+    p = outdir / name
+    root = os.path.realpath(outdir)
+    if os.path.commonpath([root, os.path.realpath(p)]) != root:
+        return None
+    return p
+
+
+def _done(row: Mapping[str, Any], job: Job, outdir: Path) -> bool:
+    """Whether a manifest row shows ``job`` done with the same key (:func:`job_key`), every
+    output still inside ``outdir`` with the size the row recorded."""
+    outputs, sizes = row.get("outputs"), row.get("sizes")
+    if row.get("status") != "done" or row.get("key") != job.key:
+        return False
+    if not isinstance(outputs, list) or not outputs or not isinstance(sizes, list):
+        return False
+    if len(sizes) != len(outputs):
+        return False
+    for name, size in zip(outputs, sizes, strict=True):
+        p = inside(outdir, name)
+        if p is None or isinstance(size, bool) or not isinstance(size, int):
+            return False
+        try:
+            st = os.stat(p)
+        except OSError:
+            return False
+        if not stat.S_ISREG(st.st_mode) or st.st_size != size:
+            return False
+    return True
 
 
 def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
@@ -350,9 +568,14 @@ def _check_params(drawings: Sequence[str], params: Mapping[str, Any]) -> tuple:
     return tuple(sorted(out.items()))
 
 
-def plan(scenes: Sequence[str | os.PathLike[str]], views: Any) -> tuple[list[Job], Any]:
+def plan(
+    scenes: Sequence[str | os.PathLike[str]],
+    views: Any,
+    defines: Mapping[str, Any] | None = None,
+) -> tuple[list[Job], Any]:
     """The jobs of ``scenes`` x ``views`` (scene by scene) and the parsed view spec; ``views``
-    is a spec (text or :class:`~mi_npr.views.ViewSpec`) or a list of cameras."""
+    is a spec (text or :class:`~mi_npr.views.ViewSpec`) or a list of cameras; ``defines``
+    resolve the scenes' ``$name`` file names (:func:`~mi_npr.io.manifest.scene_hash`)."""
 
     if isinstance(views, ViewSpec):
         spec = views
@@ -370,7 +593,7 @@ def plan(scenes: Sequence[str | os.PathLike[str]], views: Any) -> tuple[list[Job
     check_unique_stems(paths)
     jobs = []
     for p in dict.fromkeys(paths):
-        h = scene_hash(p)
+        h = scene_hash(p, defines)
         jobs.extend(Job(p, h, v) for v in spec.ids())
     return jobs, spec
 
@@ -393,6 +616,7 @@ def run(
     scheduler: str | None = None,
     resume: bool = False,
     retries: int = 0,
+    job_timeout: float | None = None,
     progress: bool = True,
     line_color: Sequence[float] | None = None,
     paper: Sequence[float] | None = None,
@@ -405,9 +629,17 @@ def run(
 
     ``flat`` writes one scene's views into ``out`` itself (``out/<view id>.exr``; the camera
     paths of :mod:`mi_npr.paths`). ``client``: a ``distributed.Client`` to run on; else
-    ``scheduler`` (an address) to connect
-    to; else a ``LocalCluster`` of ``workers`` processes (default: one per core, at most one per
-    job) started and closed here; ``workers=0`` renders in this process, without Dask.
+    ``scheduler`` (an address, reached within Dask's connect timeout,
+    ``distributed.comm.timeouts.connect``, 30 s by default) to connect to; else a
+    ``LocalCluster`` of ``workers`` processes started and closed here (default: one per core;
+    never more than jobs, and more than cores only when asked, with a warning); ``workers=0``
+    renders in this process, without Dask.
+
+    On Dask, a job that goes without progress for longer than its bound (``job_timeout``
+    seconds per step, default :data:`JOB_TIMEOUT` plus its samples over
+    :data:`SAMPLES_PER_SECOND`) is stopped, its worker restarted, and the job retried while it
+    has ``retries`` left, else recorded as failed with the reason; the batch goes on. A job
+    retried carries the errors of its earlier attempts in its row's ``retried``.
 
     >>> import tempfile
     >>> rows = mi_npr.batch.run(["scenes_xml/scene1.xml"], "orbit:2", out=tempfile.mkdtemp(),
@@ -428,7 +660,8 @@ def run(
         arg("threads_per_worker", threads_per_worker),
         arg("retries", retries),
     )
-    jobs, spec = plan(scenes, views)
+    job_timeout = arg("job_timeout", job_timeout)
+    jobs, spec = plan(scenes, views, defines)
     outdir = check_writable_dir(out, create=True)
     settings = BatchSettings(
         outdir=str(outdir.resolve()),
@@ -445,17 +678,28 @@ def run(
         line_color=tuple(float(v) for v in line_color) if line_color else None,
         paper=tuple(float(v) for v in paper) if paper else None,
         flat=flat,
+        job_timeout=job_timeout,
     )
     if flat and len({j.scene for j in jobs}) > 1:
         raise ParameterError("flat outputs are for one scene (its views' files would collide)")
+    own = {j.scene: scene_drawings(j.scene, defines) for j in jobs}
+    check_outputs(
+        [
+            (j.id, outdir if flat else outdir / j.stem, j.view, (*settings.drawings, *own[j.scene]))
+            for j in jobs
+        ]
+    )
     manifest = outdir / MANIFEST
-    flags = settings.flags()
+    check_manifest(manifest)
+    jobs = [replace(j, key=job_key(settings, j)) for j in jobs]
+    earlier: dict[str, list[dict[str, Any]]] = {}
+    for r in read_rows(manifest):
+        earlier.setdefault(str(r.get("job")), []).append(r)
     rows: dict[str, dict[str, Any]] = {}
     if resume:
-        last = {r.get("job"): r for r in read_rows(manifest)}
         for job in jobs:
-            r = last.get(job.id)
-            if r is not None and _done(r, job, flags, outdir):
+            r = earlier.get(job.id, [None])[-1]
+            if r is not None and _done(r, job, outdir):
                 rows[job.id] = r
     pending = [j for j in jobs if j.id not in rows]
     bar: Any = None
@@ -465,6 +709,8 @@ def run(
     def record(row: dict[str, Any]) -> None:
         append_row(manifest, row)
         rows[row["job"]] = row
+        if row["status"] == "done":
+            _remove_replaced(outdir, row, earlier.get(row["job"], []), jobs, flat)
         if row["status"] != "done":
             message = f"mi-npr: error: {row['error']}"
         elif row.get("warning"):
@@ -485,7 +731,77 @@ def run(
     finally:
         if bar is not None:
             bar.close()
+    _warn_left(outdir, earlier, jobs, flat)
     return [rows[j.id] for j in jobs if j.id in rows]
+
+
+def _claimed(name: str, jobs: Sequence[Job], flat: bool) -> bool:
+    """Whether a file ``name`` (relative to OUT) may be one that a job of this run writes:
+    it is in a job's folder and starts with its view id (every name the writer gives does,
+    :func:`job_files`)."""
+    folder, _, base = name.replace(os.sep, "/").rpartition("/")
+    return any((flat or folder == j.stem) and base.startswith(j.view) for j in jobs)
+
+
+def _remove_replaced(
+    outdir: Path,
+    row: Mapping[str, Any],
+    before: Sequence[Mapping[str, Any]],
+    jobs: Sequence[Job],
+    flat: bool,
+) -> None:
+    """The files of a job's earlier sets (its earlier rows) that its new set does not hold:
+    removed with the set (a ``--resume`` without ``--lines`` leaves no old drawing), unless a
+    job of this run may write that name, which a warning names instead."""
+    new = set(row.get("outputs") or [])
+    old = {n for r in before if isinstance(r.get("outputs"), list) for n in r["outputs"]}
+    kept = []
+    for name in sorted(n for n in old - new if isinstance(n, str)):
+        p = inside(outdir, name)
+        if p is None or not p.is_file():
+            continue
+        others = [j for j in jobs if j.id != row.get("job")]
+        if _claimed(name, others, flat):
+            kept.append(name)
+            continue
+        with contextlib.suppress(OSError):
+            p.unlink()
+    if kept:
+        warnings.warn(
+            f"{row.get('job')}: files of its earlier set left in {outdir}: {', '.join(kept)}",
+            NprWarning,
+            stacklevel=4,
+        )
+
+
+def _warn_left(
+    outdir: Path,
+    earlier: Mapping[str, Sequence[Mapping[str, Any]]],
+    jobs: Sequence[Job],
+    flat: bool,
+) -> None:
+    """A warning naming the files of earlier jobs that this run does not have, beside its
+    own (frames of a longer path, the views of a larger orbit): they are no part of this
+    set."""
+    ids = {j.id for j in jobs}
+    folders = {"" if flat else j.stem for j in jobs}
+    left: list[str] = []
+    for job, rs in earlier.items():
+        if job in ids:
+            continue
+        for name in rs[-1].get("outputs") or []:
+            p = inside(outdir, name)
+            folder = os.path.dirname(name) if isinstance(name, str) else None
+            if p is not None and folder in folders and p.is_file():
+                left.append(name)
+    if left:
+        shown = ", ".join(sorted(left)[:4]) + (", ..." if len(left) > 4 else "")
+        warnings.warn(
+            f"{outdir}: {len(left)} files of earlier jobs that this run does not have are "
+            f"left beside its outputs ({shown})",
+            NprWarning,
+            stacklevel=3,
+        )
 
 
 def _run_here(settings: BatchSettings, jobs: Sequence[Job], retries: int, record: Callable) -> None:
@@ -521,11 +837,84 @@ def local_cluster(workers: int, **kwargs: Any) -> Any:
 
 
 def _default_workers(workers: int | None, jobs: int, threads: int | None) -> tuple[int, int]:
-    """Workers of a LocalCluster (default: one per core, at most one per job) and the Dr.Jit
-    threads each uses (default: the cores shared out)."""
+    """Workers of a LocalCluster and the Dr.Jit threads each uses (default: the cores shared
+    out). Default: one per core, at most one per job. Asked for: never more than the jobs (an
+    idle worker only costs its start-up; a warning says so), more than the cores with a
+    warning."""
     cores = os.cpu_count() or 1
-    n = workers or max(1, min(cores, jobs))
+    if not workers:
+        n = max(1, min(cores, jobs))
+    else:
+        n = workers
+        if n > jobs:
+            warnings.warn(
+                f"workers = {n}: only {jobs} job{'s' * (jobs != 1)} to run, so {jobs} "
+                f"worker{'s' * (jobs != 1)} started",
+                NprWarning,
+                stacklevel=3,
+            )
+            n = jobs
+        if n > cores:
+            warnings.warn(
+                f"workers = {n}: more workers than the {cores} cores (they share them)",
+                NprWarning,
+                stacklevel=3,
+            )
     return n, threads or max(1, cores // n)
+
+
+def _connect(scheduler: str) -> Any:
+    """A ``distributed.Client`` of the scheduler at ``scheduler``, or a :class:`ParameterError`
+    naming ``--scheduler`` within Dask's connect timeout: a malformed address, nothing
+    listening, a silent port, or a peer that is no Dask scheduler (an HTTP server)."""
+    import asyncio  # imported here, with Dask: only a batch on a running scheduler needs it
+
+    import dask  # imported here: see _worker_name
+    from dask.utils import parse_timedelta
+    from distributed import Client
+    from distributed.comm import connect
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.security import Security
+
+    where = f"--scheduler {scheduler!r}"
+    try:
+        scheme, loc = parse_address(scheduler)
+        if scheme not in ("tcp", "tls"):
+            raise ValueError(f"scheme {scheme!r}")
+        _, port = parse_host_port(loc)
+        if not 0 < int(port) < 65536:
+            raise ValueError(f"port {port}")
+    except (ValueError, TypeError) as e:
+        raise ParameterError(
+            f"{where}: not a scheduler address ({one_line(e)}; expected tcp://HOST:PORT)"
+        ) from None
+    bound = parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"), "s") or 30.0
+    args = Security().get_connection_args("client")
+
+    async def identity() -> Any:
+        comm = await connect(scheduler, timeout=bound, **args)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        answer = asyncio.run(asyncio.wait_for(identity(), bound))
+    except (TimeoutError, asyncio.TimeoutError, OSError) as e:
+        why = one_line(e) if str(e) else f"no answer within {bound:g} s"
+        raise ParameterError(f"{where}: cannot connect ({why})") from None
+    except Exception as e:  # the peer's bytes are no Dask message (MemoryError, ValueError)
+        raise ParameterError(
+            f"{where}: not a Dask scheduler (its answer cannot be read: {type(e).__name__})"
+        ) from None
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        kind = answer.get("type") if isinstance(answer, dict) else type(answer).__name__
+        raise ParameterError(f"{where}: not a Dask scheduler (it is a {kind})")
+    try:
+        return Client(scheduler, timeout=bound)
+    except (OSError, TimeoutError) as e:
+        raise ParameterError(f"{where}: cannot connect ({one_line(e)})") from None
 
 
 def _run_dask(
@@ -538,61 +927,144 @@ def _run_dask(
     workers: int | None,
 ) -> None:
     """The batch on Dask: one task per job, submitted scene by scene; a failed task (or one
-    whose worker died) is submitted again while it has retries left."""
+    whose worker died, or one stopped past its bound without progress) is submitted again
+    while it has retries left."""
     from distributed import Client, as_completed  # imported here: see _worker_name
 
     own_cluster = own_client = None
     try:
         if client is None:
             if scheduler is not None:
-                try:
-                    # Dask's connect timeout (30 s; $DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT)
-                    client = own_client = Client(scheduler)
-                except (OSError, TimeoutError) as e:
-                    raise ParameterError(
-                        f"--scheduler {scheduler}: cannot connect ({one_line(e)})"
-                    ) from None
+                client = own_client = _connect(scheduler)
             else:
                 n, threads = _default_workers(workers, len(jobs), settings.threads)
                 own_cluster = local_cluster(n)
                 settings = replace(settings, threads=threads)
                 client = own_client = Client(own_cluster)
-        tag = f"{os.getpid()}-{time.time_ns()}"
-        attempts: dict[Any, tuple[Job, int]] = {}
-
-        def submit(job: Job, attempt: int, priority: int) -> Any:
-            fut = client.submit(
-                render_job,
-                settings,
-                job,
-                attempt,
-                key=f"mi-npr-{job.id}-{attempt}-{tag}",
-                pure=False,
-                priority=priority,
-            )
-            attempts[fut.key] = (job, attempt)
-            return fut
-
-        futures = as_completed([submit(j, 1, len(jobs) - i) for i, j in enumerate(jobs)])
-        for fut in futures:
-            job, attempt = attempts.pop(fut.key)
-            try:
-                row = fut.result()
-            except Exception as e:  # the worker died (KilledWorker), the task could not run
-                row = _row(
-                    settings,
-                    job,
-                    attempt,
-                    error=f"{job.id}: {type(e).__name__}: {one_line(e)}",
-                    seconds=None,
-                )
-            fut.release()
-            if row["status"] != "done" and attempt <= retries:
-                futures.add(submit(job, attempt + 1, len(jobs)))
-                continue
-            record(row)
+        _watch(settings, jobs, retries, record, client, as_completed)
     finally:
         if own_client is not None:
             own_client.close()
         if own_cluster is not None:
             own_cluster.close()
+
+
+def _watch(
+    settings: BatchSettings,
+    jobs: Sequence[Job],
+    retries: int,
+    record: Callable,
+    client: Any,
+    as_completed: Any,
+) -> None:
+    """Submit ``jobs``, record each one's row as it ends, and stop the jobs that go past their
+    bound without progress: the task is cancelled, its worker restarted (a worker without a
+    nanny is stopped), and the job retried or recorded as failed with the reason."""
+    tag = f"{os.getpid()}-{time.time_ns()}"
+    settings = replace(settings, topic=f"{PROGRESS_TOPIC}-{tag}")
+    attempts: dict[str, tuple[Job, int, Any]] = {}  # task key -> (job, attempt, future)
+    earlier: dict[str, list[str]] = {}  # job id -> errors of its earlier attempts
+    seen: dict[str, tuple[float, float, str]] = {}  # task key -> (last progress, bound, worker)
+    lock = threading.Lock()
+
+    def on_progress(event: Any) -> None:
+        _, msg = event
+        if isinstance(msg, dict) and "key" in msg:
+            with lock:
+                seen[str(msg["key"])] = (time.monotonic(), float(msg["limit"]), msg["worker"])
+
+    def submit(job: Job, attempt: int, priority: int) -> Any:
+        fut = client.submit(
+            render_job,
+            settings,
+            job,
+            attempt,
+            key=f"mi-npr-{job.id}-{attempt}-{tag}",
+            pure=False,
+            priority=priority,
+        )
+        attempts[str(fut.key)] = (job, attempt, fut)
+        return fut
+
+    def finish(job: Job, attempt: int, row: dict[str, Any]) -> bool:
+        """Record ``row``, or retry the job (True) while it has retries left."""
+        if row["status"] != "done" and attempt <= retries:
+            earlier.setdefault(job.id, []).append(str(row["error"]))
+            futures.add(submit(job, attempt + 1, len(jobs)))
+            return True
+        if job.id in earlier:
+            row["retried"] = earlier.pop(job.id)
+        record(row)
+        return False
+
+    client.subscribe_topic(settings.topic, on_progress)
+    try:
+        futures = as_completed([submit(j, 1, len(jobs) - i) for i, j in enumerate(jobs)])
+        while attempts:
+            done = futures.next_batch(block=False) if futures.has_ready() else []
+            for fut in done:
+                key = str(fut.key)
+                if key not in attempts:  # a task stopped past its bound: recorded already
+                    continue
+                job, attempt, _ = attempts.pop(key)
+                with lock:
+                    seen.pop(key, None)
+                try:
+                    row = fut.result()
+                except Exception as e:  # the worker died (KilledWorker), the task could not run
+                    row = _row(
+                        settings,
+                        job,
+                        attempt,
+                        error=f"{job.id}: {type(e).__name__}: {one_line(e)}",
+                        seconds=None,
+                    )
+                fut.release()
+                finish(job, attempt, row)
+            if not done:
+                if not _stop_stalled(settings, client, attempts, seen, lock, finish):
+                    time.sleep(POLL)
+    finally:
+        client.unsubscribe_topic(settings.topic)
+
+
+def _stop_stalled(
+    settings: BatchSettings,
+    client: Any,
+    attempts: dict[str, tuple[Job, int, Any]],
+    seen: dict[str, tuple[float, float, str]],
+    lock: threading.Lock,
+    finish: Callable[[Job, int, dict[str, Any]], bool],
+) -> bool:
+    """Stop every running job past its bound without progress (see :func:`_watch`); whether
+    there was one."""
+    now = time.monotonic()
+    with lock:
+        stalled = [
+            (key, limit, worker)
+            for key, (when, limit, worker) in seen.items()
+            if key in attempts and now - when > limit
+        ]
+        for key, _, _ in stalled:
+            seen.pop(key, None)
+    for key, limit, worker in stalled:
+        job, attempt, fut = attempts.pop(key)
+        fut.cancel()
+        how = _replace_worker(client, worker)
+        error = f"{job.id}: no progress in {limit:g} s (job timeout): stopped, {how}"
+        row = _row(settings, job, attempt, error=error, worker=worker, seconds=None)
+        row["finished"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+        finish(job, attempt, row)
+    return bool(stalled)
+
+
+def _replace_worker(client: Any, worker: str) -> str:
+    """Restart ``worker`` (its nanny starts a fresh process; the job's thread cannot be
+    stopped otherwise), or stop it when it has no nanny; what was done, for the row."""
+    try:
+        client.restart_workers([worker], raise_for_error=True)
+        return f"worker {worker} restarted"
+    except Exception:  # no nanny (dask worker --no-nanny), or the restart failed: stop it
+        with contextlib.suppress(Exception):
+            client.run(os._exit, 1, workers=[worker], wait=False)
+        return f"worker {worker} stopped"

@@ -27,7 +27,7 @@ sums over the whole path. A static camera gives exactly 0.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -108,7 +108,7 @@ def _vanished(a: Any, b: Any, layer: str, radius: int, tol: float) -> tuple[floa
 
 
 def popping(
-    frames: Sequence[Any], layer: str = L.LINES, *, radius: int = 1, depth_tolerance: float = 0.02
+    frames: Iterable[Any], layer: str = L.LINES, *, radius: int = 1, depth_tolerance: float = 0.02
 ) -> dict:
     """The popping of ``layer`` along ``frames`` (module docstring): a dict with ``layer``,
     ``per_frame`` (one value per consecutive pair), ``appeared`` and ``vanished`` (fractions of
@@ -117,10 +117,16 @@ def popping(
         raise ParameterError(f"radius = {radius!r}: must be an integer in [0, 8]")
     if not (isinstance(depth_tolerance, (int, float)) and 0 <= depth_tolerance < 1):
         raise ParameterError(f"depth_tolerance = {depth_tolerance!r}: must be in [0, 1)")
-    frames = list(frames)
     per, app, van, inks = [], [], [], []
     total_pop = total_ink = 0.0
-    for a, b in itertools.pairwise(frames):
+    seen = [0]
+
+    def each() -> Any:  # one pass, two frames held at a time: frames may be read from disk
+        for f in frames:
+            seen[0] += 1
+            yield f
+
+    for a, b in itertools.pairwise(each()):
         v, ink_a = _vanished(a, b, layer, radius, depth_tolerance)
         u, ink_b = _vanished(b, a, layer, radius, depth_tolerance)
         ink = ink_a + ink_b
@@ -134,7 +140,7 @@ def popping(
         "layer": layer,
         "radius": radius,
         "depth_tolerance": depth_tolerance,
-        "frames": len(frames),
+        "frames": seen[0],
         "per_frame": per,
         "appeared": app,
         "vanished": van,
@@ -204,12 +210,12 @@ def line_variants(frames: Sequence[Any], **params: Any) -> dict[str, dict]:
 
     out = {}
     for name in VARIANTS:
-        fr = [
+        fr = (
             GBuffer(
                 {**{n: f[n] for n in (L.Z, *L.P)}, L.LINES: variant_lines(f, name, **params)},
                 camera=_camera(f),
             )
             for f in frames
-        ]
+        )
         out[name] = popping(fr, L.LINES)
     return out

@@ -35,6 +35,11 @@ class OutputError(NprError):
     """An output cannot be written (directory missing or not writable, disk full, ...)."""
 
 
+class NprWarning(UserWarning):
+    """A warning mi-npr gives on purpose, one line; the command line prints it as
+    ``mi-npr: warning: ...``."""
+
+
 def one_line(exc: BaseException) -> str:
     """Mitsuba's messages span lines and start with ``[file.cpp:123]``: keep the useful part."""
 

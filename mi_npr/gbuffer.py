@@ -68,6 +68,8 @@ def _as_tensor(name: str, value: Any, shape: tuple[int, int] | None) -> Any:
             value, shp = type(value)(value.array, shape=shp[:2]), shp[:2]
         if len(shp) != 2:
             raise ParameterError(f"layer {name!r}: expected a 2-D (H, W) array, got shape {shp}")
+        if 0 in shp:
+            raise ParameterError(f"layer {name!r}: an empty layer of shape {shp}")
         if shape is not None and shp != shape:
             raise ParameterError(f"layer {name!r}: shape {shp} differs from the others' {shape}")
         vt = dr.type_v(value)
@@ -87,6 +89,10 @@ def _as_layer(name: str, value: Any, shape: tuple[int, int] | None) -> np.ndarra
         a = a[..., 0]
     if a.ndim != 2:
         raise ParameterError(f"layer {name!r}: expected a 2-D (H, W) array, got shape {a.shape}")
+    if 0 in a.shape:
+        raise ParameterError(f"layer {name!r}: an empty layer of shape {a.shape}")
+    if a.dtype.kind not in "biuf":  # objects, strings, complex numbers: no pixel type
+        raise ParameterError(f"layer {name!r}: values of type {a.dtype} are not numbers")
     if shape is not None and a.shape != shape:
         raise ParameterError(f"layer {name!r}: shape {a.shape} differs from the others' {shape}")
     known = L.spec(name)
@@ -101,6 +107,8 @@ def _as_layer(name: str, value: Any, shape: tuple[int, int] | None) -> np.ndarra
             raise ParameterError(f"layer {name!r}: integer layer holds non-integer values")
     if dtype == np.uint32 and a.dtype.kind == "i" and a.size and a.min() < 0:
         raise ParameterError(f"layer {name!r}: integer layer holds negative values")
+    if dtype == np.uint32 and a.dtype.kind in "iuf" and a.size and a.max() > 0xFFFFFFFF:
+        raise ParameterError(f"layer {name!r}: integer layer holds values above 2^32 - 1")
     return np.ascontiguousarray(a, dtype=dtype)
 
 

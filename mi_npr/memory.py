@@ -18,8 +18,10 @@ The estimate, per render of a ``W x H`` film with ``spp`` samples per pixel:
   their sample counts): :func:`check_render` returns how many.
 
 The bound is ``--max-memory`` (``set_max_memory``, or ``$MI_NPR_MAX_MEMORY``) when given, else
-what is available: ``MemAvailable`` of ``/proc/meminfo`` and, under an address-space limit
-(``RLIMIT_AS``, ``ulimit -v``), that limit less what the process has mapped already.
+what is available: ``MemAvailable`` of ``/proc/meminfo``. Under an address-space limit
+(``RLIMIT_AS``, ``ulimit -v``), that limit less what the process has mapped already bounds both:
+the smaller figure wins, as the kernel refuses what lies beyond the limit whatever
+``--max-memory`` says (a render past it dies of SIGSEGV inside Dr.Jit).
 """
 
 from __future__ import annotations
@@ -98,15 +100,16 @@ def _mapped() -> int:
 
 def available() -> tuple[int | None, str]:
     """The bound in bytes and where it comes from (``None``: nothing known, no check)."""
-    if _max_memory is not None:
-        return _max_memory, "--max-memory"
-    env = os.environ.get(ENV)
-    if env:
-        return parse_size(env), f"${ENV}"
     figures: list[tuple[int, str]] = []
-    avail = _meminfo_available()
-    if avail is not None:
-        figures.append((avail, "available memory (MemAvailable)"))
+    env = os.environ.get(ENV)
+    if _max_memory is not None:
+        figures.append((_max_memory, "--max-memory"))
+    elif env:
+        figures.append((parse_size(env), f"${ENV}"))
+    else:
+        avail = _meminfo_available()
+        if avail is not None:
+            figures.append((avail, "available memory (MemAvailable)"))
     soft, _ = resource.getrlimit(resource.RLIMIT_AS)
     if soft != resource.RLIM_INFINITY:
         figures.append((max(soft - _mapped(), 0), "the address-space limit (RLIMIT_AS)"))
@@ -217,6 +220,29 @@ def render_passes(
         if on_pass is not None:
             on_pass(n)
     return mi.TensorXf(acc / total)
+
+
+#: Bytes per pixel of every frame a gif holds until it is written (the RGB frame, Pillow's copy
+#: and its palette image).
+GIF_BYTES = 8
+
+
+def check_path(width: int, height: int, frames: int, gifs: int = 0) -> None:
+    """The memory check of a camera path of ``frames`` frames of ``width x height``, before its
+    first frame renders (each frame's render is checked by :func:`check_render`): the frames go
+    to disk as they are rendered and are read back one pair at a time for the coherence
+    measure (``2 * PIXEL_BYTES`` per pixel), except the ``gifs`` videos, which hold every frame
+    (:data:`GIF_BYTES` per pixel each). :class:`MemoryLimitError` over the bound."""
+    pixels = int(width) * int(height)
+    need = 2 * pixels * PIXEL_BYTES + int(gifs) * int(frames) * pixels * GIF_BYTES
+    bound, figure = available()
+    if bound is not None and need > bound:
+        what = f" with {gifs} gif{'s' * (gifs > 1)}" if gifs else ""
+        raise MemoryLimitError(
+            f"a path of {frames} frames of {width} x {height}{what} needs about {_gib(need)}, "
+            f"more than {_gib(bound)} ({figure}): write an mp4, lower the resolution, or "
+            "raise the bound with --max-memory"
+        )
 
 
 def check_images(width: int, height: int, images: int, what: str) -> None:

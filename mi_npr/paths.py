@@ -31,7 +31,9 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Mapping, Sequence
+import re
+import warnings
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -45,10 +47,11 @@ from . import layers as L
 from .batch import run
 from .camera import Camera, orbit, read_cameras, resolve, rotate, sensor_for, to_json
 from .coherence import line_variants, popping
-from .errors import ParameterError, SceneError
+from .errors import NprWarning, ParameterError, SceneError
 from .gbuffer import GBuffer
 from .io import read_exr, write_layered_outputs, write_text
-from .io.frames import check_format, frame_image, write_coherence, write_video
+from .io.frames import check_format, write_coherence, write_video
+from .memory import check_path
 from .params import MAX_FRAMES, Param, integer_range, real_range
 from .pipeline import render_layers
 from .scene import load_scene, sensor_of
@@ -433,21 +436,51 @@ def path_qualities(
 # ---------------------------------------------------------------------------------- rendering
 
 
+class FrameFiles(Sequence):
+    """The frames of a path as written in a folder, read back one at a time: item ``i`` is
+    ``frame_%04d.exr``'s layers of the coherence measure (``Z``, ``P``, the line layers) with
+    its camera. The measure and the videos go through the frames in order, so they hold one or
+    two frames in memory however long the path."""
+
+    def __init__(self, outdir: str | os.PathLike[str], frames: int) -> None:
+        self.outdir, self.frames = Path(outdir), int(frames)
+
+    def __len__(self) -> int:
+        return self.frames
+
+    def __getitem__(self, i: Any) -> Any:
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(self.frames))]
+        if not -self.frames <= i < self.frames:
+            raise IndexError(f"frame {i} of {self.frames}")
+        gb = read_exr(self.outdir / f"frame_{i % self.frames:04d}.exr")
+        return GBuffer({n: gb[n] for n in _KEPT if n in gb}, camera=gb.camera)
+
+    def pictures(self, suffix: str = "") -> Iterator[np.ndarray]:
+        """The sRGB frames ``frame_%04d<suffix>.png`` in order (``_contours``: the contour
+        overlay), as the videos take them; a frame without one ends the sequence."""
+        for i in range(self.frames):
+            png = self.outdir / f"frame_{i:04d}{suffix}.png"
+            if not png.is_file():
+                return
+            with Image.open(png) as im:
+                yield np.asarray(im.convert("RGB"))
+
+
 @dataclass
 class Frames:
     """What :func:`render_frames` wrote and measured."""
 
     files: list[Path]
-    #: the frames kept for :func:`mi_npr.coherence.popping` (``P``, ``Z``, the line layers)
-    gbuffers: list
+    #: the frames for :func:`mi_npr.coherence.popping` (``P``, ``Z``, the line layers), read
+    #: from the written files as they are used (:class:`FrameFiles`)
+    gbuffers: Sequence
     coherence: dict | None = None
     videos: list[Path] | None = None
 
 
-#: Layers kept per frame for the coherence measure.
-def _kept_layers() -> tuple[str, ...]:
-
-    return (L.Z, *L.P, L.LINES, L.CONTOUR)
+#: Layers of a frame the coherence measure reads.
+_KEPT = (L.Z, *L.P, L.LINES, L.CONTOUR)
 
 
 def render_frames(
@@ -482,10 +515,15 @@ def render_frames(
     ``variants``, ``coherence.json`` also holds the popping of the four line variants of the
     thesis's claim (:func:`mi_npr.coherence.line_variants`) and the plot draws them.
 
+    Memory does not grow with the path: each frame goes to disk as it is rendered, and the
+    coherence measure and an mp4 read the frames back one at a time (:class:`FrameFiles`); a
+    gif holds its frames, so the memory it needs is checked before the first frame renders
+    (:func:`mi_npr.memory.check_path`).
+
     ``cluster`` (``workers``, ``threads_per_worker``, ``scheduler``, ``client``, ``resume``,
-    ``retries``: :func:`mi_npr.batch.run`'s) makes every frame a batch job on Dask instead:
-    ``scene`` must then be an XML path; the cameras go to the batch in memory (camera ``i`` is
-    the view ``frame_%04d``); the frames are the same files (plus the batch's
+    ``retries``, ``job_timeout``: :func:`mi_npr.batch.run`'s) makes every frame a batch job on
+    Dask instead: ``scene`` must then be an XML path; the cameras go to the batch in memory
+    (camera ``i`` is the view ``frame_%04d``); the frames are the same files (plus the batch's
     ``manifest.jsonl``, so ``resume`` skips finished frames), read back for the coherence
     measure and the videos.
     """
@@ -498,56 +536,45 @@ def render_frames(
     outdir = Path(out)
     outdir.mkdir(parents=True, exist_ok=True)
     files: list[Path] = []
-    kept: list = []
-    movie: dict[str, list[np.ndarray]] = {"beauty": [], "contours": []}
+    session = None
+    if cluster is None:
+        session = SceneSession.open(scene, spp=spp, defines=defines, resolution=resolution)
+        w, h = (int(v) for v in session.sensor.film().crop_size())
+    else:
+        w, h = resolution if resolution is not None else (None, None)
+    if w is not None and h is not None:
+        gifs = (1 + ("contours" in drawings)) if video == "gif" else 0
+        check_path(w, h, len(cams), gifs)
     if cluster is not None:
         files += _frames_as_jobs(
             scene, cams, outdir, drawings, params, resolution, spp, seed, defines, cluster, progress
         )
-        for i in range(len(cams)):
-            gb = read_exr(outdir / f"frame_{i:04d}.exr")
-            kept.append(GBuffer({n: gb[n] for n in _kept_layers() if n in gb}, camera=gb.camera))
-            if video is not None:
-                movie["beauty"].append(frame_image(gb.beauty))
-                png = outdir / f"frame_{i:04d}_contours.png"
-                if png.is_file():
-                    movie["contours"].append(np.asarray(Image.open(png).convert("RGB")))
-        cams_left: list[Camera] = []
     else:
-        cams_left = cams
-    session = (
-        None
-        if cluster is not None
-        else SceneSession.open(scene, spp=spp, defines=defines, resolution=resolution)
-    )
-    bar = None
-    if progress and cams_left:
-        bar = tqdm(total=len(cams), desc="frames", unit="frame", leave=False)
-    for i, cam in enumerate(cams_left):
         assert session is not None
-        sensor = sensor_for(cam, session.sensor)
-        r = render_layers(
-            session.scene, drawings, params, sensor=sensor, spp=session.spp, seed=seed
-        )
-        files += write_layered_outputs(r, outdir, f"frame_{i:04d}")
-        gb = r.gbuffer
-        kept.append(GBuffer({n: gb[n] for n in _kept_layers() if n in gb}, camera=gb.camera))
-        if video is not None:
-            movie["beauty"].append(frame_image(gb.beauty))
-            if "contours" in r.pictures:
-                movie["contours"].append(frame_image(r.pictures["contours"]))
-        if on_frame is not None:
-            on_frame(i, r)
+        bar = tqdm(total=len(cams), desc="frames", unit="frame", leave=False) if progress else None
+        for i, cam in enumerate(cams):
+            sensor = sensor_for(cam, session.sensor)
+            r = render_layers(
+                session.scene, drawings, params, sensor=sensor, spp=session.spp, seed=seed
+            )
+            files += write_layered_outputs(r, outdir, f"frame_{i:04d}")
+            if on_frame is not None:
+                on_frame(i, r)
+            if bar is not None:
+                bar.update(1)
         if bar is not None:
-            bar.update(1)
-    if bar is not None:
-        bar.close()
+            bar.close()
+    frames = FrameFiles(outdir, len(cams))
     files.append(write_text(outdir / "path.json", to_json(cams)))
-    layer = L.LINES if L.LINES in kept[0] else L.CONTOUR if L.CONTOUR in kept[0] else None
+    if cluster is None:  # the batch names the files of its earlier jobs itself
+        _warn_other_frames(outdir, len(cams))
+    first = frames[0]
+    layer = L.LINES if L.LINES in first else L.CONTOUR if L.CONTOUR in first else None
+    del first
     coherence = None
-    curves = line_variants(kept) if variants else None
+    curves = line_variants(frames) if variants else None
     if layer is not None:
-        coherence = popping(kept, layer=layer)
+        coherence = popping(frames, layer=layer)
     elif curves:
         coherence = {"layer": None, "overall": None}
     if coherence is not None:
@@ -555,11 +582,33 @@ def render_frames(
         coherence = {**coherence, "variants": curves} if curves else coherence
     videos = []
     if video is not None:
-        for name, images in movie.items():
-            if images:
-                videos.append(write_video(outdir / f"{name}.{video}", images, fps=fps))
+        written = {p.name for p in files}
+        for name, suffix in (("beauty", ""), ("contours", "_contours")):
+            if f"frame_0000{suffix}.png" in written:
+                videos.append(
+                    write_video(outdir / f"{name}.{video}", frames.pictures(suffix), fps=fps)
+                )
     files += videos
-    return Frames(files, kept, coherence, videos)
+    return Frames(files, frames, coherence, videos)
+
+
+_FRAME = re.compile(r"^frame_(\d{4,})[._]")
+
+
+def _warn_other_frames(outdir: Path, frames: int) -> None:
+    """A warning naming the frame files of an earlier, longer path left in ``outdir`` (they
+    are not part of this path: ``path.json``, the coherence and the videos leave them out)."""
+    left = sorted(
+        e.name for e in os.scandir(outdir) if (m := _FRAME.match(e.name)) and int(m[1]) >= frames
+    )
+    if left:
+        shown = ", ".join(left[:4]) + (", ..." if len(left) > 4 else "")
+        warnings.warn(
+            f"{outdir}: frame files of an earlier, longer path are left beside this path's "
+            f"{frames} frames: {shown}",
+            NprWarning,
+            stacklevel=3,
+        )
 
 
 def _frames_as_jobs(
@@ -583,7 +632,15 @@ def _frames_as_jobs(
         raise ParameterError("frames as batch jobs: give the scene as an XML path")
     views = [replace(c, id=f"frame_{i:04d}") for i, c in enumerate(cams)]
     w, h = resolution if resolution is not None else (None, None)
-    allowed = {"workers", "threads_per_worker", "scheduler", "client", "resume", "retries"}
+    allowed = {
+        "workers",
+        "threads_per_worker",
+        "scheduler",
+        "client",
+        "resume",
+        "retries",
+        "job_timeout",
+    }
     unknown = sorted(set(cluster) - allowed)
     if unknown:
         raise ParameterError(

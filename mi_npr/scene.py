@@ -9,18 +9,25 @@ shapes ``<type>_<hash>`` from their type, bounding box and primitive count; equa
 table from Mitsuba's shape registry index to our id turns ``si.shape`` into an id with one gather.
 
 Scenes are loaded with ``optimize=False``: Mitsuba otherwise merges meshes that share a BSDF into
-one shape, and separate objects would get one id.
+one shape, and separate objects would get one id. They are loaded with at least
+:data:`LOAD_THREADS` Dr.Jit threads (the count asked for is restored afterwards): Mitsuba
+3.9.1's loader deadlocks on a scene with an EXR texture when Dr.Jit has a single thread. Every
+file a scene references (:func:`scene_files`) must be a regular file: a FIFO, a device or a
+socket would block the loader forever, so it is refused first ("not a regular file").
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import re
+import stat
 import xml.etree.ElementTree as ET
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import drjit as dr
@@ -132,6 +139,38 @@ def _use_search_paths() -> None:
             resolver.prepend(p)
 
 
+#: The fewest Dr.Jit threads a scene is loaded with (module docstring).
+LOAD_THREADS = 2
+
+
+@contextlib.contextmanager
+def loading_threads() -> Iterator[None]:
+    """Run the block with at least :data:`LOAD_THREADS` Dr.Jit threads, then restore the count
+    (a batch worker's one thread): Mitsuba 3.9.1 deadlocks loading an EXR texture otherwise."""
+    n = dr.thread_count()
+    if n >= LOAD_THREADS:
+        yield
+        return
+    dr.set_thread_count(LOAD_THREADS)
+    try:
+        yield
+    finally:
+        dr.set_thread_count(n)
+
+
+def _check_referenced(path: str, values: Mapping[str, str]) -> None:
+    """A :class:`SceneError` for a file the scene names that exists but is no regular file
+    (a FIFO, device or socket would block the loader); missing files are Mitsuba's to report."""
+    for f in scene_files(path, values):
+        try:
+            mode = os.stat(f).st_mode
+        except OSError:
+            continue
+        if not stat.S_ISREG(mode):
+            what = "is a directory" if stat.S_ISDIR(mode) else "not a regular file"
+            raise SceneError(f"{path}: {f}: {what}")
+
+
 def load_scene(
     scene: str | os.PathLike[str] | mi.Scene,
     /,
@@ -165,8 +204,10 @@ def load_scene(
     size = {k: _size(k, defines.pop(k)) for k in _SIZE if k in defines and k not in declared}
     values = {k: _define_value(k, v) for k, v in defines.items()}
     _use_search_paths()
+    _check_referenced(path, values)
     try:
-        loaded = mi.load_file(path, optimize=False, **values)
+        with loading_threads():
+            loaded = mi.load_file(path, optimize=False, **values)
     except Exception as e:  # Mitsuba raises RuntimeError for every parse/instantiation problem
         unused = re.findall(r"\$(\w+)=", str(e)) if "unused parameters" in str(e) else []
         if unused:
@@ -231,6 +272,67 @@ def default_values(path: str | os.PathLike[str]) -> dict[str, str]:
             if el.get("filename"):
                 todo.append(os.path.join(os.path.dirname(p), el.get("filename", "")))
     return names
+
+
+def _xml_defaults(root: ET.Element) -> dict[str, str]:
+    return {
+        el.get("name", ""): el.get("value", "") for el in root.iter("default") if el.get("name")
+    }
+
+
+def _substitute(text: str, values: Mapping[str, str]) -> str:
+    """``$name`` replaced by its value, as Mitsuba's parser does (longest names first, so
+    ``$meshes`` is not ``$mesh`` + ``es``)."""
+    if "$" not in text:
+        return text
+    for name in sorted(values, key=len, reverse=True):
+        text = text.replace(f"${name}", values[name])
+    return text
+
+
+def scene_files(
+    path: str | os.PathLike[str], defines: Mapping[str, Any] | None = None
+) -> list[Path]:
+    """Every file an XML scene references, in document order, includes followed recursively:
+    ``<include filename>``, ``filename`` attributes and ``<string name="filename">`` values
+    (meshes, textures, environment maps, spectra), with ``$name`` replaced by ``defines``
+    over the XML's ``<default>``\\ s. A relative name is taken from the naming file's folder,
+    else the scene's; a name left with a ``$`` (no value) is skipped. Files that do not exist
+    are listed too (Mitsuba reports them when loading); unreadable XML gives none."""
+    top = Path(path).resolve()
+    given = {k: _define_value(k, v) for k, v in (defines or {}).items()}
+    found: list[Path] = []
+    seen: set[Path] = {top}
+
+    def visit(xml: Path, inherited: Mapping[str, str]) -> None:
+        try:
+            root = ET.parse(xml).getroot()
+        except (ET.ParseError, OSError, RecursionError):
+            return
+        values = {**_xml_defaults(root), **inherited}
+        for el in root.iter():
+            names = []
+            if "filename" in el.attrib:
+                names.append(el.attrib["filename"])
+            if el.get("name") == "filename" and "value" in el.attrib:
+                names.append(el.attrib["value"])
+            for raw in names:
+                name = _substitute(raw, values)
+                if not name or "$" in name:
+                    continue
+                candidates = [(xml.parent / name), (top.parent / name)]
+                f = next((c for c in candidates if os.path.lexists(c)), candidates[0])
+                f = Path(os.path.abspath(f))
+                if f in seen:
+                    continue
+                seen.add(f)
+                found.append(f)
+                if el.tag == "include" and f.suffix.lower() == ".xml" and f.is_file():
+                    visit(f, values)
+
+    if top.is_file():
+        visit(top, given)
+    return found
 
 
 def sensor_of(scene: mi.Scene, sensor: int | mi.Sensor = 0) -> mi.Sensor:

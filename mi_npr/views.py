@@ -95,6 +95,12 @@ class ViewSpec:
     def _index(self) -> dict[str, int]:
         return {str(c.id): k for k, c in enumerate(self.cameras)}
 
+    def camera(self, view: str) -> Camera | None:
+        """The camera of ``view`` for a file or cameras given in memory, else ``None`` (the
+        cameras of the other kinds are placed once the scene is loaded)."""
+        k = self._index.get(view)
+        return None if k is None else self.cameras[k]
+
     def where(self, view: str) -> str:
         """How errors name the camera of ``view``: its file and index for a camera file."""
         if self.kind != "file":

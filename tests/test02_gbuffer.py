@@ -96,3 +96,23 @@ def test08_overlays_keep_the_raw_beauty():
     np.testing.assert_array_equal(twice.beauty[1, 3], [0, 0, 1])
     with pytest.raises(ParameterError, match="RGB triple"):
         compose.over(gb.beauty, a, (1, 0))
+
+
+@pytest.mark.parametrize(
+    ("layers", "message"),
+    [
+        ({"object_id.V": np.array([[2**32, 1]], np.int64)}, "above 2\\^32 - 1"),  # no wrap to 0
+        ({"ids": np.array([[2**40]], np.uint64)}, "above 2\\^32 - 1"),
+        ({"object_id.V": np.array([[2.0**33]])}, "above 2\\^32 - 1"),
+        ({"Z": np.array([[None, 1.0]], dtype=object)}, "type object are not numbers"),
+        ({"Z": np.array([["a"]])}, "are not numbers"),
+        ({"Z": np.zeros((0, 0), np.float32)}, "empty layer of shape \\(0, 0\\)"),
+        ({"Z": np.zeros((3, 0), np.float32)}, "empty layer"),
+    ],
+)
+def test06_ids_out_of_range_objects_and_empty_layers_are_refused(layers, message):
+    with pytest.raises(ParameterError, match=message):
+        GBuffer(layers)
+    assert GBuffer({"object_id.V": np.array([[2**32 - 1]], np.int64)}).numpy("object_id.V")[
+        0, 0
+    ] == np.uint32(2**32 - 1)  # the largest id still fits

@@ -266,3 +266,20 @@ def test14_search_path_finds_the_files_a_scene_names(tmp_path, capsys, monkeypat
     assert "-a " + str(tmp_path / "nowhere") + ": not a folder" in capsys.readouterr().err
     assert cli.main([*argv, "-a", str(meshes)]) == 0
     monkeypatch.delenv("MI_NPR_SEARCH_PATH", raising=False)
+
+
+def test15_empty_output_folder_and_empty_glob_are_refused(ball, tmp_path, capsys, monkeypatch):
+    """``-o ''`` is no folder (it used to write into the current one); ``--only ''`` selects
+    no object on purpose (it used to mean every object)."""
+    monkeypatch.chdir(tmp_path)
+    for command in (["render", str(ball)], ["batch", str(ball), "--workers", "0"]):
+        assert cli.main([*command, "-o", "", "--no-progress"]) == 1
+        err = capsys.readouterr().err.strip()
+        assert (
+            err == "mi-npr: error: output directory '': an empty name (give a folder, e.g. -o out)"
+        )
+    assert sorted(os.listdir(tmp_path)) == ["ball.xml"]  # nothing written here
+    with pytest.raises(SystemExit) as e:
+        cli.main(["render", str(ball), "-o", "out", "--contours", "--only", ""])
+    assert e.value.code == 2
+    assert "argument --only: an empty pattern" in capsys.readouterr().err

@@ -313,7 +313,7 @@ FLOOR_AND_BACKDROP = """<scene version="3.0.0">
 
 
 @pytest.mark.parametrize("spec", ["orbit:4", "sphere:4"])
-def test20_views_frame_the_objects_not_the_floor(tmp_path, spec):
+def test17_views_frame_the_objects_not_the_floor(tmp_path, spec):
     """A crate off-centre on a 40 m floor before a backdrop, lit by an area light: the framing
     is the crate's (floors, backdrops and lights are not what a view is about), so every view
     sees it, and sphere views see it whole and large."""
@@ -332,3 +332,27 @@ def test20_views_frame_the_objects_not_the_floor(tmp_path, spec):
         assert seen.sum() > 30, (vid, int(seen.sum()))
         if spec.startswith("sphere"):  # whole: the crate touches no border of the image
             assert not (seen[0].any() or seen[-1].any() or seen[:, 0].any() or seen[:, -1].any())
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"origin": [0, 0, -1e39]}, "origin = .*: expected 3 finite numbers"),  # inf in float32
+        ({"origin": [True, 0, 0]}, "origin = .*: expected 3 finite numbers"),
+        ({"target": ["1", "2", "3"]}, "target = .*: expected 3 finite numbers"),
+        ({"origin": [0, 0, 3e38], "target": [0, 0, -3e38]}, "too far apart \\(float32\\)"),
+        ({"origin": [1, 1, 1], "target": [1, 1, 1 + 1e-10]}, "the same point"),  # in float32
+    ],
+)
+def test15_cameras_are_checked_as_mitsuba_sees_them(fields, message):
+    """Mitsuba computes in float32: an origin of -1e39 would be infinite, the camera NaN."""
+    values = {"origin": [0, 0, -4], "target": [0, 0, 0], **fields}
+    with pytest.raises(ParameterError, match=message):
+        C.Camera.checked("keys.json: camera 0", **values)
+
+
+def test16_a_camera_file_nested_too_deeply_is_one_error(tmp_path):
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 200_000 + "]" * 200_000)
+    with pytest.raises(ParameterError, match=r"deep.json: not a JSON file of cameras \(nested"):
+        C.read_cameras(deep)

@@ -75,34 +75,61 @@ def test02_sigkill_debris_is_swept_by_the_next_run(tmp_path):
     assert proc.returncode == -signal.SIGKILL
     left = temps(out)
     assert len(left) == 2 and all(f".{proc.pid}." in n for n in left)  # the PID is in the name
+    assert all(f".{_atomic.OWNER}." in n for n in left)  # and this host and PID namespace
     r = run_cli("render", str(scene), "-o", str(out), "--no-progress")
     assert r.returncode == 0, r.stderr
     assert sorted(p.name for p in out.iterdir()) == ["ball.exr", "ball.png"]
 
 
 def test03_stale_rules(tmp_path):
-    """Dead PID: removed; live PID (another process): kept; old-style name without a PID:
-    removed only when older than the running process; files of other tools: kept."""
+    """A temp of this host and PID namespace: removed when its PID is dead, kept while it
+    lives. A temp of another host or PID namespace (shared storage, containers), or an older
+    name without the owner: kept until untouched for STALE_AFTER, whatever its PID says (that
+    PID may be a live writer there). Files of other tools: kept."""
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()
     live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    here, there = _atomic.OWNER, "0123456789ab"
+    assert here != there and len(here) == 12
     try:
-        names = {
-            f".a.exr.{dead.pid}.abcd_123.tmp": False,
-            f".a.exr.{live.pid}.abcd_123.tmp": True,
-            ".a.png.zzzz9999.tmp": False,
-            ".other.txt": True,
-            "a.tmp": True,
+        names = {  # name: kept, touched an hour and a bit ago
+            f".a.exr.{dead.pid}.{here}.abcd_123.tmp": (False, False),
+            f".b.exr.{live.pid}.{here}.abcd_123.tmp": (True, False),
+            f".c.exr.{dead.pid}.{there}.abcd_123.tmp": (True, False),  # a live writer there
+            f".d.exr.{dead.pid}.{there}.abcd_123.tmp": (False, True),
+            f".e.exr.{dead.pid}.abcd_123.tmp": (True, False),  # an older name: no owner
+            f".f.exr.{dead.pid}.abcd_123.tmp": (False, True),
+            ".g.png.zzzz9999.tmp": (False, True),
+            ".other.txt": (True, True),
+            "a.tmp": (True, True),
         }
-        for n in names:
+        past = time.time() - _atomic.STALE_AFTER - 60
+        for n, (_, old) in names.items():
             (tmp_path / n).write_bytes(b"x")
-        past = time.time() - 3600
-        os.utime(tmp_path / ".a.png.zzzz9999.tmp", (past, past))
+            if old:
+                os.utime(tmp_path / n, (past, past))
         _atomic.clean_stale(tmp_path)
-        assert {n for n in names if (tmp_path / n).exists()} == {n for n, k in names.items() if k}
+        kept = {n for n, (k, _) in names.items() if k}
+        assert {n for n in names if (tmp_path / n).exists()} == kept
     finally:
         live.kill()
         live.wait()
+
+
+def test03b_a_live_writer_in_another_pid_namespace_survives_a_sweep(tmp_path):
+    """Another container writes into the same folder (shared storage): its PID, dead in this
+    namespace, names a live process there. Its temp survives this process's sweep, and the
+    sweep of a real run that writes beside it."""
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()  # in this namespace the PID is free: a dead PID, as the sweeper sees it
+    theirs = tmp_path / f".x.exr.{gone.pid}.fedcba987654.k2j4h6g8.tmp"
+    theirs.write_bytes(b"half an EXR")
+    ball = tmp_path / "ball.xml"
+    ball.write_text(scene_xml(BALL, width=16, height=12))
+    assert _atomic.clean_stale(tmp_path) == []
+    r = run_cli("render", str(ball), "-o", str(tmp_path), "--no-progress")
+    assert r.returncode == 0, r.stderr
+    assert theirs.read_bytes() == b"half an EXR"
 
 
 def test04_an_output_set_is_all_or_nothing(tmp_path, monkeypatch):
@@ -122,3 +149,42 @@ def test04_an_output_set_is_all_or_nothing(tmp_path, monkeypatch):
     with pytest.raises(mi_npr.OutputError, match="No space left"):
         mi_npr.io.write_outputs(new, tmp_path, "x")
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # no temp, no mix
+
+
+def test05_fifos_are_not_regular_files_wherever_a_file_is_read_or_written(tmp_path):
+    """A FIFO would block whoever opens it: as the --views file, the manifest (read on
+    --resume, appended to), a scene's mesh (also through a $define) or an output, it is one
+    line saying "not a regular file", and the command ends."""
+    from mi_npr.io.manifest import append_row, read_rows
+
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    ball = tmp_path / "ball.xml"
+    ball.write_text(scene_xml(BALL, width=16, height=12))
+    mesh = tmp_path / "mesh.xml"
+    ply = '<shape type="ply"><string name="filename" value="$m"/></shape>'
+    mesh.write_text(scene_xml(f'<default name="m" value="fifo.json"/>{ply}'))
+    out = tmp_path / "out"
+    cases = [
+        (["batch", str(ball), "-o", str(out), "--views", str(fifo)], f"{fifo}: not a regular"),
+        (["batch", str(mesh), "-o", str(out)], f"{fifo}: not a regular file"),
+        (["render", str(mesh), "-o", str(out)], f"{fifo}: not a regular file"),
+    ]
+    (tmp_path / "o2").mkdir()
+    os.mkfifo(tmp_path / "o2" / "manifest.jsonl")
+    for resume in ([], ["--resume"]):
+        cases.append((["batch", str(ball), "-o", str(tmp_path / "o2"), *resume],
+                      "manifest.jsonl: not a regular file"))  # fmt: skip
+    (tmp_path / "o3").mkdir()
+    os.mkfifo(tmp_path / "o3" / "ball.png")
+    cases.append((["render", str(ball), "-o", str(tmp_path / "o3")], "ball.png: not a regular"))
+    for argv, words in cases:
+        r = subprocess.run([sys.executable, "-m", "mi_npr.cli", *argv, "--no-progress",
+                            *(["--workers", "0"] if argv[0] == "batch" else [])],
+                           cwd=ROOT, capture_output=True, text=True, timeout=60)  # fmt: skip
+        assert r.returncode == 1, (argv, r.stderr)
+        assert words in r.stderr and "Traceback" not in r.stderr, (argv, r.stderr)
+    for call in (lambda: append_row(fifo, {"job": "x"}), lambda: list(read_rows(fifo))):
+        with pytest.raises(mi_npr.OutputError, match="not a regular file"):
+            call()
+    assert sorted(p.name for p in (tmp_path / "o3").iterdir()) == ["ball.png"]  # no temp left

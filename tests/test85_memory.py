@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import weakref
 
 import numpy as np
 import pytest
@@ -147,3 +148,49 @@ def test08_best_view_id_buffers_are_checked(tmp_path):
     )  # fmt: skip
     assert r.returncode == 1 and "12 ID buffers of 20000 x 15000" in r.stderr, r.stderr
     assert "(--max-memory)" in r.stderr
+
+
+def test09_max_memory_does_not_lift_an_address_space_limit(tmp_path):
+    """--max-memory 1T under a 3 GiB ulimit -v: the smaller bound wins, a clean refusal."""
+    scene = tmp_path / "ball.xml"
+    scene.write_text(scene_xml(BALL, width=8192, height=8192))
+    r = _limited("render", str(scene), "-o", str(tmp_path / "out"), "--no-progress",
+                 "--max-memory", "1T")  # fmt: skip
+    assert r.returncode == 1, (r.returncode, r.stderr[-2000:])  # never -11 / 139
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "8192 x 8192" in lines[0] and "RLIMIT_AS" in lines[0]
+
+
+def test10_a_path_checks_its_memory_before_rendering_and_streams_its_frames(tmp_path):
+    from mi_npr import camera as C
+    from mi_npr import paths as P
+
+    scene = str(ROOT / "scenes_xml" / "scene3.xml")
+    cams = C.orbit(scene, 3, 20.0)
+    out = tmp_path / "gif"
+    memory.set_max_memory("2M")
+    try:  # 3 frames of 320 x 240 in a gif: ~2 x 12 MiB of window, over 2 MiB: before any frame
+        with pytest.raises(mi_npr.MemoryLimitError, match=r"a path of 3 frames of 320 x 240"):
+            P.render_frames(scene, cams, out, resolution=(320, 240), spp=1, video="gif")
+    finally:
+        memory.set_max_memory(None)
+    assert not any(out.glob("frame_*"))
+    # The frames of a rendered path are read back as they are used, not kept.
+    r = P.render_frames(scene, C.orbit(scene, 6, 30.0), tmp_path / "p", ["lines"],
+                        resolution=(24, 18), spp=1, video="mp4")  # fmt: skip
+    assert isinstance(r.gbuffers, P.FrameFiles) and len(r.gbuffers) == 6
+    assert (tmp_path / "p" / "beauty.mp4").stat().st_size > 0
+    # The measure goes through them once, in order, holding a pair (and the one being read).
+    alive: set[int] = set()
+    most = [0]
+
+    def watched():
+        for i, gb in enumerate(r.gbuffers):
+            alive.add(i)
+            weakref.finalize(gb, alive.discard, i)
+            most[0] = max(most[0], len(alive))
+            yield gb
+
+    again = mi_npr.coherence.popping(watched(), layer="lines.V")
+    assert most[0] <= 3 and again["frames"] == 6
+    assert again["per_frame"] == r.coherence["per_frame"]  # the same measure as the path's

@@ -156,6 +156,8 @@ def test06_cli_exit_codes_and_errors(write_scene, tmp_path, capsys):
         (["--workers", "5000"], 2, "--workers"),
         (["--threads-per-worker", "0"], 2, "--threads-per-worker"),
         (["--retries", "1000"], 2, "--retries"),
+        (["--job-timeout", "0"], 2, "--job-timeout"),
+        (["--job-timeout", "nan"], 2, "--job-timeout"),
         (["--scheduler", "tcp://127.0.0.1:9", "--views", "scene"], 1, "--scheduler"),
         (
             ["--crease-angle", "30"],
@@ -186,3 +188,148 @@ def test07_local_cluster_and_resume_by_cli(write_scene, tmp_path):
     r = run_cli(*args, "--resume")
     assert r.returncode == 0 and "6 of 6 jobs done" in r.stdout
     assert len(list(read_rows(out / "manifest.jsonl"))) == 6
+
+
+# -- no file is written by two jobs ------------------------------------------------------------
+
+
+def test08_job_files_are_what_a_job_writes(write_scene, tmp_path):
+    """The names the clash check uses are read off the writer: equal to what a real job wrote,
+    every one its stem followed by the rest."""
+    from mi_npr.batch import job_files
+
+    path = write_scene(BODY, width=16, height=12)
+    for drawings in ((), ("lines",), ("lines", "contours")):
+        rows = _run(path, tmp_path / "-".join(drawings or ("none",)), views="scene",
+                    drawings=list(drawings))  # fmt: skip
+        written = sorted(os.path.basename(p) for p in rows[0]["outputs"])
+        assert sorted("scene" + s for s in job_files(tuple(sorted(drawings)))) == written
+    assert set(job_files(("lines",))) >= {".exr", ".png", "_lines.png", "_lines.svg"}
+
+
+def test09_two_jobs_writing_one_file_are_refused_before_rendering(write_scene, tmp_path, capsys):
+    path = write_scene(BODY, width=16, height=12)
+    views = tmp_path / "views.json"
+    cams = [
+        {"id": i, "origin": [0, 0, 0], "target": [0, 0, 1], "fov": 40} for i in ("v", "v_lines")
+    ]
+    views.write_text(json.dumps(cams))
+    out = tmp_path / "out"
+    with pytest.raises(mi_npr.ParameterError) as e:
+        _run(path, out, views=str(views), drawings=["lines"])
+    assert str(e.value) == (f"scene/v and scene/v_lines would both write {out / 'scene'}/"
+                            "v_lines.png: rename one of them")  # fmt: skip
+    assert not (out / "scene").exists()  # nothing rendered
+    # Without the lines, v writes no v_lines.png: no clash.
+    rows = _run(path, out, views=str(views))
+    assert [r["status"] for r in rows] == ["done", "done"]
+    # A scene that draws lines by itself (its integrator is npr_lines) clashes the same way.
+    lines = write_scene(BODY, name="drawn.xml", integrator='<integrator type="npr_lines"/>')
+    with pytest.raises(mi_npr.ParameterError, match="drawn/v and drawn/v_lines would both"):
+        _run(lines, out, views=str(views))
+    # render a.xml a_lines.xml --lines: one folder, the same clash between scenes.
+    a = write_scene(BODY, name="a.xml")
+    b = write_scene(BODY, name="a_lines.xml")
+    code, err = _main(["render", str(a), str(b), "-o", str(tmp_path / "r"), "--lines"], capsys)
+    assert code == 1 and "Traceback" not in err
+    assert err.strip() == (f"mi-npr: error: {a} and {b} would both write "
+                           f"{tmp_path / 'r' / 'a_lines.png'}: rename one of them")  # fmt: skip
+    assert not list((tmp_path / "r").iterdir())
+    code, err = _main(["render", str(a), str(b), "-o", str(tmp_path / "r"), "--no-progress"],
+                      capsys)  # fmt: skip
+    assert code == 0, err
+
+
+# -- resume by content -------------------------------------------------------------------------
+
+TRIANGLE = "v {} 0 3\nv 1 0 3\nv 0 1 3\nf 1 2 3\n"
+
+
+def _redone(out, n: int) -> list[str]:
+    """The jobs of the rows after the first ``n`` of the manifest."""
+    return [r["job"] for r in list(read_rows(out / "manifest.jsonl"))[n:]]
+
+
+def test10_resume_redoes_an_edited_camera_file_and_a_replaced_define_mesh(write_scene, tmp_path):
+    (tmp_path / "a.obj").write_text(TRIANGLE.format(-1))
+    body = ('<default name="mesh" value="a.obj"/>'
+            '<shape type="obj"><string name="filename" value="$mesh"/></shape>')  # fmt: skip
+    path = write_scene(body, width=16, height=12)
+    views = tmp_path / "views.json"
+    cams = [{"id": f"c{k}", "origin": [0.1 * k, 0, 0], "target": [0, 0, 3]} for k in range(3)]
+    views.write_text(json.dumps(cams))
+    out = tmp_path / "out"
+    rows = _run(path, out, views=str(views))
+    assert [r["status"] for r in rows] == ["done"] * 3
+    n = 3
+    _run(path, out, views=str(views), resume=True)
+    assert _redone(out, n) == []
+    cams[1]["origin"] = [0.5, 0, 0]  # the file edited in place: that camera only
+    views.write_text(json.dumps(cams))
+    _run(path, out, views=str(views), resume=True)
+    assert _redone(out, n) == ["scene/c1"]
+    n += 1
+    (tmp_path / "a.obj").write_text(TRIANGLE.format(-2))  # the mesh named by $mesh, replaced
+    _run(path, out, views=str(views), resume=True)
+    assert _redone(out, n) == ["scene/c0", "scene/c1", "scene/c2"]
+    n += 3
+    # An output cut short (its size differs from the row's): that job again.
+    exr = out / "scene" / "c2.exr"
+    exr.write_bytes(exr.read_bytes()[:-1])
+    _run(path, out, views=str(views), resume=True)
+    assert _redone(out, n) == ["scene/c2"]
+
+
+def test11_a_new_set_leaves_no_file_of_the_old_one_unnamed(write_scene, tmp_path):
+    """--resume without --lines: the job's old drawing goes with its old set. A smaller
+    orbit into a larger one's folder: a warning names the files it does not own."""
+    path = write_scene(BODY, width=16, height=12)
+    out = tmp_path / "out"
+    _run(path, out, views="orbit:3", drawings=["lines"])
+    assert (out / "scene" / "orbit_000_lines.svg").is_file()
+    with pytest.warns(mi_npr.errors.NprWarning) as caught:
+        rows = _run(path, out, views="orbit:2", resume=True)
+    assert [r["status"] for r in rows] == ["done", "done"]
+    assert sorted(p.name for p in (out / "scene").iterdir()) == [
+        "orbit_000.exr", "orbit_000.png", "orbit_001.exr", "orbit_001.png",
+        "orbit_002.exr", "orbit_002.png", "orbit_002_lines.png", "orbit_002_lines.svg",
+    ]  # fmt: skip
+    (warning,) = [str(w.message) for w in caught]
+    assert warning == (f"{out}: 4 files of earlier jobs that this run does not have are left "
+                       "beside its outputs (scene/orbit_002.exr, scene/orbit_002.png, "
+                       "scene/orbit_002_lines.png, scene/orbit_002_lines.svg)")  # fmt: skip
+
+
+# -- a manifest that is always readable --------------------------------------------------------
+
+
+def test12_cut_lines_bad_rows_and_outputs_outside_out(write_scene, tmp_path):
+    path = write_scene(BODY, width=16, height=12)
+    out = tmp_path / "out"
+    manifest = out / "manifest.jsonl"
+    rows = _run(path, out, views="orbit:2")
+    # A disk that filled mid-line, then the next run: its row starts on a line of its own.
+    with open(manifest, "ab") as f:
+        f.write(b'{"job": "scene/orbit_000", "sta')
+    append_row(manifest, {"job": "x", "status": "failed"})
+    lines = manifest.read_bytes().split(b"\n")
+    assert lines[2] == b'{"job": "scene/orbit_000", "sta' and json.loads(lines[3])["job"] == "x"
+    # A row with a wrong-typed field, a nesting too deep for Python's JSON reader, a row whose
+    # outputs name a file outside OUT (a copy of orbit_001's EXR, size and key as recorded).
+    bad = {**rows[0], "sizes": "big"}
+    outside = tmp_path / "elsewhere.exr"
+    outside.write_bytes((out / rows[1]["outputs"][0]).read_bytes())
+    escaped = {**rows[1], "outputs": ["../elsewhere.exr"], "sizes": [outside.stat().st_size]}
+    with open(manifest, "ab") as f:
+        f.write(json.dumps(bad).encode() + b"\n" + b"[" * 200_000 + b"\n")
+        f.write(json.dumps(escaped).encode() + b"\n")
+    with pytest.warns(mi_npr.errors.NprWarning) as caught:
+        again = _run(path, out, views="orbit:2", resume=True)
+    said = [str(w.message) for w in caught]
+    assert said == [f"{manifest}:3: row skipped: not JSON (JSONDecodeError)",
+                    f"{manifest}:5: row skipped: 'sizes' is a str",
+                    f"{manifest}:6: row skipped: not JSON (RecursionError)"]  # fmt: skip
+    assert again[0] == rows[0]  # skipped: its last readable row is the done one
+    assert again[1] != rows[1] and again[1]["status"] == "done"  # outside OUT: done again
+    with pytest.warns(mi_npr.errors.NprWarning):  # the same three lines, still there
+        assert [r["job"] for r in read_rows(manifest)][-1] == "scene/orbit_001"

@@ -19,9 +19,10 @@ import numpy as np
 import pytest
 
 import mi_npr
+import mi_npr.cli
 from mi_npr.io.manifest import read_rows
 
-from .helpers import ROOT
+from .helpers import ROOT, scene_xml
 
 SCENES = [str(ROOT / "scenes_xml" / "scene1.xml"), str(ROOT / "scenes_xml" / "scene2.xml")]
 SIZE = ["--width", "32", "--height", "24", "--spp", "2"]
@@ -224,3 +225,152 @@ def test03_a_killed_worker_loses_no_job(cluster, tmp_path):
     assert len(rows) == 2 * n and all(row["status"] == "done" for row in rows)
     assert b"2 of" not in stdout and f"{2 * n} of {2 * n} jobs done".encode() in stdout
     json.dumps(rows)
+
+
+# -- nothing hangs ---------------------------------------------------------------------------
+
+
+def _envmap_scene(tmp: Path) -> Path:
+    """A sphere lit by an 8 x 4 EXR environment map, written by mi-npr's own EXR writer."""
+    from mi_npr.gbuffer import GBuffer
+
+    rgb = {c: np.full((4, 8), v, np.float32) for c, v in zip("RGB", (0.5, 0.6, 0.7), strict=True)}
+    mi_npr.io.write_exr(tmp / "env.exr", GBuffer(rgb))
+    xml = tmp / "envmap.xml"
+    xml.write_text(
+        scene_xml(
+            '<emitter type="envmap"><string name="filename" value="env.exr"/></emitter>'
+            '<shape type="sphere"><point name="center" x="0" y="0" z="3"/></shape>',
+            width=16,
+            height=16,
+            integrator='<integrator type="path"/>',
+        )
+    )
+    return xml
+
+
+def test04_an_exr_texture_loads_on_one_thread_per_worker(tmp_path):
+    """Mitsuba deadlocks loading an EXR texture under one Dr.Jit thread: two workers of one
+    thread each still render the scene (the loader takes two threads, then gives one back)."""
+    xml = _envmap_scene(tmp_path)
+    out = tmp_path / "out"
+    argv = [sys.executable, "-m", "mi_npr.cli", "batch", str(xml), "-o", str(out), "--views",
+            "orbit:2", "--workers", "2", "--threads-per-worker", "1", "--no-progress"]  # fmt: skip
+    r = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True, timeout=90, check=False)
+    assert r.returncode == 0, r.stderr
+    rows = _rows(out)
+    assert [row["status"] for row in rows] == ["done", "done"]
+    beauty = mi_npr.io.read_exr(out / rows[0]["outputs"][0]).beauty
+    # Seen around the sphere, the background is the map's constant colour.
+    np.testing.assert_allclose(beauty[0, 0], (0.5, 0.6, 0.7), rtol=1e-3)
+
+
+BODY = '<shape type="sphere"><point name="center" x="0" y="0" z="3"/></shape>'
+
+
+def _sphere(tmp: Path) -> Path:
+    xml = tmp / "sphere.xml"
+    xml.write_text(scene_xml(BODY, width=16, height=12))
+    return xml
+
+
+def _hang_once(marker: str) -> None:
+    """On a worker: the job of view ``orbit_001`` sleeps forever the first time it runs (a
+    marker file says it did), as a deadlocked job would; the other jobs run as usual."""
+    import mi_npr.batch as b
+
+    original = getattr(b._scene, "original", b._scene)
+
+    def scene(settings, job):
+        if job.view == "orbit_001":
+            try:
+                os.close(os.open(marker, os.O_CREAT | os.O_EXCL))
+            except FileExistsError:
+                return original(settings, job)
+            while True:
+                time.sleep(1)
+        return original(settings, job)
+
+    scene.original = original
+    b._scene = scene
+
+
+def test05_a_job_without_progress_is_stopped_and_the_batch_ends(tmp_path):
+    """The job of one view sleeps forever on its first attempt: it is stopped past its bound,
+    its worker restarted, and its retry renders; the manifest row says why it was retried."""
+    from distributed import Client
+
+    xml = _sphere(tmp_path)
+    out = tmp_path / "out"
+    with mi_npr.batch.local_cluster(2) as cluster, Client(cluster) as client:
+        client.run(_hang_once, str(tmp_path / "hung"))
+        rows = mi_npr.batch.run([xml], "orbit:3", client, out=out, width=16, height=12, spp=1,
+                                progress=False, job_timeout=5, retries=1)  # fmt: skip
+    assert [r["status"] for r in rows] == ["done"] * 3
+    assert [r["attempt"] for r in rows] == [1, 2, 1]
+    (why,) = rows[1]["retried"]
+    assert why.startswith("sphere/orbit_001: no progress in 5 s (job timeout): stopped, worker")
+    assert rows[0].get("retried") is None and rows[2].get("retried") is None
+    manifest = {r["job"]: r for r in _rows(out)}  # the manifest says it too
+    assert manifest["sphere/orbit_001"]["retried"] == [why]
+
+
+def test06_more_workers_than_jobs_start_only_what_the_jobs_need(tmp_path):
+    xml = _sphere(tmp_path)
+    with pytest.warns(mi_npr.errors.NprWarning, match=r"workers = 64: only 1 job to run, so 1"):
+        rows = mi_npr.batch.run([xml], "scene", out=tmp_path / "o", workers=64, spp=1,
+                                progress=False)  # fmt: skip
+    assert [r["status"] for r in rows] == ["done"]
+    assert rows[0]["worker"].startswith("tcp://")
+
+
+def _peer(kind: str) -> tuple[socket.socket, str]:
+    """A listening socket on localhost that never answers (``silent``) or answers bytes that
+    are no Dask message (``http``, ``garbage``); served by a daemon thread."""
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    kept = []
+
+    def serve():
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            kept.append(conn)
+            if kind == "http":
+                conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+            elif kind == "garbage":
+                conn.sendall(b"\xff" * 64 + b"garbage" * 50)
+
+    threading.Thread(target=serve, daemon=True).start()
+    return srv, f"tcp://127.0.0.1:{srv.getsockname()[1]}"
+
+
+def test07_bad_schedulers_fail_within_the_bound_naming_the_flag(tmp_path, capsys):
+    import dask
+
+    xml = _sphere(tmp_path)
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+        srv, address = _peer("silent")
+        with srv:
+            code = mi_npr.cli.main(["batch", str(xml), "-o", str(tmp_path / "o"),
+                                    "--scheduler", address, "--no-progress"])  # fmt: skip
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 1 and len(err) == 1
+        assert err[0] == (f"mi-npr: error: --scheduler '{address}': cannot connect "
+                          "(no answer within 2 s)")  # fmt: skip
+        for kind in ("http", "garbage"):
+            srv, address = _peer(kind)
+            with srv, pytest.raises(mi_npr.ParameterError) as e:
+                mi_npr.batch.run([xml], out=tmp_path / "o", scheduler=address, progress=False)
+            assert str(e.value).startswith(f"--scheduler '{address}': not a Dask scheduler")
+        for bad in ("nonsense", "tcp://host:port", "tcp://[::1", "http://127.0.0.1:80",
+                    "tcp://127.0.0.1:99999", ""):  # fmt: skip
+            with pytest.raises(mi_npr.ParameterError) as e:
+                mi_npr.batch.run([xml], out=tmp_path / "o", scheduler=bad, progress=False)
+            assert f"--scheduler {bad!r}: not a scheduler address" in str(e.value)
+            assert "\n" not in str(e.value)

@@ -45,3 +45,40 @@ def test02_a_resumed_path_redoes_no_frame(tmp_path):
     P.render_frames(SCENE3, cams, out, ["lines"], cluster={"workers": 0, "resume": True}, **SIZE)
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("frame_*.exr")} == stamp
     assert len((out / "manifest.jsonl").read_text().splitlines()) == 2  # nothing rendered again
+
+
+def test03_a_changed_path_redoes_its_changed_frames(tmp_path):
+    """``mi-npr path --resume`` after ``--degrees`` changes: the frames whose camera moved are
+    rendered again (the first, at the scene's camera, is not), so every frame matches the
+    new ``path.json``; the batch rows record the new cameras."""
+    from mi_npr.cli import main
+
+    out = tmp_path / "p"
+    argv = ["path", SCENE3, "-o", str(out), "--frames", "3", "--width", "16", "--height", "12",
+            "--spp", "1", "--workers", "0", "--no-progress", "--resume"]  # fmt: skip
+    assert main([*argv, "--degrees", "30"]) == 0
+    assert main([*argv, "--degrees", "90"]) == 0
+    rows = [json.loads(x) for x in (out / "manifest.jsonl").read_text().splitlines()]
+    assert [r["view"] for r in rows] == ["frame_0000", "frame_0001", "frame_0002",
+                                         "frame_0001", "frame_0002"]  # fmt: skip
+    path = json.loads((out / "path.json").read_text())
+    last = {r["view"]: r for r in rows}
+    for i, cam in enumerate(path):
+        assert last[f"frame_{i:04d}"]["camera"]["origin"] == cam["origin"]
+    for cam, want in zip(path, C.orbit(SCENE3, 3, 90.0), strict=True):  # the new path
+        np.testing.assert_allclose(cam["origin"], want.origin, atol=1e-5)
+
+
+def test04_a_shorter_path_names_the_frames_it_leaves(tmp_path):
+    import pytest
+
+    from mi_npr.errors import NprWarning
+
+    out = tmp_path / "p"
+    P.render_frames(SCENE3, C.orbit(SCENE3, 3, 20.0), out, **SIZE)
+    with pytest.warns(NprWarning) as caught:
+        P.render_frames(SCENE3, C.orbit(SCENE3, 2, 20.0), out, **SIZE)
+    assert [str(w.message) for w in caught] == [
+        f"{out}: frame files of an earlier, longer path are left beside this path's 2 frames: "
+        "frame_0002.exr, frame_0002.png"
+    ]

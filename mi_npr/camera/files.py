@@ -87,6 +87,8 @@ def from_json(text: str, source: str = "cameras") -> list[Camera]:
         data = json.loads(text)
     except ValueError as e:
         raise ParameterError(f"{source}: not a JSON file of cameras ({e})") from None
+    except RecursionError:  # Python's reader recurses once per nesting level
+        raise ParameterError(f"{source}: not a JSON file of cameras (nested too deeply)") from None
     return from_data(data, source)
 
 

@@ -37,13 +37,27 @@ Vec3 = tuple[float, float, float]
 CAMERA_ID = re.compile(r"^[A-Za-z0-9_-][A-Za-z0-9_.-]{0,99}$")
 
 
+#: The largest coordinate a camera takes: Mitsuba computes in float32, where a larger one is
+#: infinite (and the camera NaN).
+MAX_COORDINATE = float(np.finfo(np.float32).max)
+
+
+def _number(x: Any) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(
+        x, (bool, np.bool_)
+    )
+
+
 def _vec3(where: str, name: str, value: Any) -> Vec3:
-    try:  # a string of three digits is not three numbers
-        v = [] if isinstance(value, (str, bytes)) else [float(x) for x in value]
-    except (TypeError, ValueError):
+    try:  # a string of three digits is not three numbers, nor are booleans
+        items = [] if isinstance(value, (str, bytes)) else list(value)
+        v = [float(x) for x in items] if all(_number(x) for x in items) else []
+    except (TypeError, ValueError, OverflowError):
         v = []
-    if len(v) != 3 or not all(math.isfinite(x) for x in v):
-        raise ParameterError(f"{where}: {name} = {value!r}: expected 3 finite numbers")
+    if len(v) != 3 or not all(math.isfinite(x) and abs(x) <= MAX_COORDINATE for x in v):
+        raise ParameterError(
+            f"{where}: {name} = {value!r}: expected 3 finite numbers (float32: |x| <= 3.4e38)"
+        )
     return (v[0] + 0.0, v[1] + 0.0, v[2] + 0.0)  # + 0.0: no -0.0
 
 
@@ -63,8 +77,13 @@ def check_lookat(
     :class:`~mi_npr.errors.ParameterError` line starting with ``where``."""
     o, t = _vec3(where, "origin", origin), _vec3(where, "target", target)
     d = np.subtract(t, o)
-    if np.linalg.norm(d) == 0:
+    with np.errstate(over="ignore", invalid="ignore"):  # as Mitsuba sees them, in float32
+        d32 = np.subtract(np.float32(t), np.float32(o))
+        n32 = float(np.linalg.norm(d32.astype(np.float64)))
+    if np.linalg.norm(d) == 0 or n32 == 0:
         raise ParameterError(f"{where}: origin and target are the same point {list(o)}")
+    if not (np.all(np.isfinite(d32)) and math.isfinite(n32)):
+        raise ParameterError(f"{where}: origin and target are too far apart (float32)")
     u = None if up is None else _vec3(where, "up", up)
     if u is not None and parallel(d, u):
         raise ParameterError(f"{where}: up = {list(u)} lies along the view direction (parallel)")

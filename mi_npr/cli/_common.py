@@ -9,14 +9,16 @@ parameter's own rule, so a bad value is a usage error naming the flag (exit 2).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
-from collections.abc import Callable, Iterable, Sequence
+import warnings
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 from ..batch import CLUSTER_PARAMS, parse_define
 from ..drawings import DRAWINGS, shared_params
-from ..errors import ParameterError, for_terminal
+from ..errors import NprWarning, ParameterError, for_terminal
 from ..memory import parse_size
 from ..params import Param, coerce, problem
 from ..session import RENDER_PARAMS
@@ -47,6 +49,24 @@ def warn(message: object) -> None:
     print(f"{PROG}: warning: {t(message)}", file=sys.stderr)
 
 
+@contextlib.contextmanager
+def npr_warnings() -> Iterator[None]:
+    """Inside the block, the library's :class:`~mi_npr.errors.NprWarning`\\ s are printed as
+    they happen, one ``mi-npr: warning:`` line each (others as Python prints them)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", NprWarning)
+        shown = warnings.showwarning
+
+        def show(message: Any, category: type, *rest: Any, **kw: Any) -> None:
+            if issubclass(category, NprWarning):
+                warn(message)
+            else:
+                shown(message, category, *rest, **kw)
+
+        warnings.showwarning = show
+        yield
+
+
 # ---------------------------------------------------------------------------- value parsing
 
 
@@ -70,6 +90,14 @@ def _define(text: str) -> tuple[str, str]:
         return parse_define(text)
     except ParameterError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _glob(text: str) -> str:
+    """A shell glob of ``--only``/``--ignore``: an empty one would select nothing on purpose
+    yet mean every object (the library's empty selection), so it is refused."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty pattern (give a glob such as 'sphere*')")
+    return text
 
 
 def _size(text: str) -> str:
@@ -228,7 +256,7 @@ def add_drawings(
         text = f"{takers}: {p.doc} (default: the scene's, else {shown!s})"
         if name in REPEATABLE:
             group.add_argument(
-                flag(name), dest=f"p_{name}", action="append", metavar="GLOB", help=text
+                flag(name), dest=f"p_{name}", action="append", metavar="GLOB", help=text, type=_glob
             )
         else:
             who = DRAWINGS[entries[0][0]].plugin or entries[0][0]

@@ -18,6 +18,7 @@ from ._common import (
     asked_drawings,
     drawing_values,
     fail,
+    npr_warnings,
     rgb,
     spp_and_defines,
     t,
@@ -51,26 +52,28 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     params = drawing_values(args)
     spp, defines = spp_and_defines(args)
-    rows = run_batch(
-        args.scenes,
-        args.views,
-        out=args.output,
-        drawings=asked_drawings(args),
-        params=params,
-        width=args.width,
-        height=args.height,
-        spp=None if spp is None else int(spp),
-        seed=args.seed,
-        defines=defines,
-        workers=args.workers,
-        threads_per_worker=args.threads_per_worker,
-        scheduler=args.scheduler,
-        resume=args.resume,
-        retries=args.retries,
-        progress=not args.no_progress,
-        line_color=params.get("line_color"),
-        paper=args.paper,
-    )
+    with npr_warnings():
+        rows = run_batch(
+            args.scenes,
+            args.views,
+            out=args.output,
+            drawings=asked_drawings(args),
+            params=params,
+            width=args.width,
+            height=args.height,
+            spp=None if spp is None else int(spp),
+            seed=args.seed,
+            defines=defines,
+            workers=args.workers,
+            threads_per_worker=args.threads_per_worker,
+            scheduler=args.scheduler,
+            resume=args.resume,
+            retries=args.retries,
+            job_timeout=args.job_timeout,
+            progress=not args.no_progress,
+            line_color=params.get("line_color"),
+            paper=args.paper,
+        )
     failed = [r for r in rows if r.get("status") != "done"]
     if args.no_progress:  # else the progress bar printed each line as its job ended
         for r in failed:

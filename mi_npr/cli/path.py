@@ -25,6 +25,7 @@ from ._common import (
     add_scene,
     asked_drawings,
     drawing_values,
+    npr_warnings,
     resolution,
     spp_and_defines,
     t,
@@ -89,6 +90,7 @@ def _cluster(args: argparse.Namespace) -> dict | None:
         "workers": args.workers,
         "threads_per_worker": args.threads_per_worker,
         "scheduler": args.scheduler,
+        "job_timeout": args.job_timeout,
     }
     given = {k: v for k, v in given.items() if v is not None}
     if not given and not args.resume and not args.retries:
@@ -99,28 +101,29 @@ def _cluster(args: argparse.Namespace) -> dict | None:
 def run(args: argparse.Namespace) -> int:
     outdir = check_writable_dir(args.output, create=True)
     spp, defines = spp_and_defines(args)
-    result = render_path(
-        args.scene,
-        outdir,
-        args.frames,
-        asked_drawings(args),
-        drawing_values(args),
-        explore_measure=args.explore,
-        explore_ignore=args.explore_ignore,
-        keys=args.keys,
-        degrees=args.degrees,
-        max_speed=args.max_speed,
-        max_turn=args.max_turn,
-        resolution=resolution(args),
-        spp=spp,
-        defines=defines,
-        seed=args.seed,
-        video=args.video,
-        fps=args.fps,
-        variants=args.variants,
-        progress=not args.no_progress and sys.stderr.isatty(),
-        cluster=_cluster(args),
-    )
+    with npr_warnings():
+        result = render_path(
+            args.scene,
+            outdir,
+            args.frames,
+            asked_drawings(args),
+            drawing_values(args),
+            explore_measure=args.explore,
+            explore_ignore=args.explore_ignore,
+            keys=args.keys,
+            degrees=args.degrees,
+            max_speed=args.max_speed,
+            max_turn=args.max_turn,
+            resolution=resolution(args),
+            spp=spp,
+            defines=defines,
+            seed=args.seed,
+            video=args.video,
+            fps=args.fps,
+            variants=args.variants,
+            progress=not args.no_progress and sys.stderr.isatty(),
+            cluster=_cluster(args),
+        )
     c = result.coherence
     print(f"{t(args.scene)}: {args.frames} frames in {t(outdir)}")
     if c is not None and c.get("overall") is not None:

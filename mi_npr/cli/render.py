@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..batch import check_unique_stems, run_jobs
+from ..batch import check_outputs, check_unique_stems, run_jobs, scene_drawings
 from ..drawings import DRAWINGS
 from ..io import check_writable_dir, write_layered_outputs
 from ..pipeline import render_layers
@@ -56,6 +56,21 @@ def render_scenes(args: argparse.Namespace, drawings: tuple[str, ...], only: str
     check_unique_stems(args.scenes)
     outdir = check_writable_dir(args.output, create=True)
     spp, defines = spp_and_defines(args)
+    no_image = getattr(args, "no_beauty_in_svg", False)
+    svg_image = "none" if no_image else getattr(args, "svg_image", "embed")
+    check_outputs(
+        [
+            (
+                s,
+                outdir,
+                Path(s).stem,
+                [*drawings, *(scene_drawings(s, defines) if only is None else [])],
+            )
+            for s in args.scenes
+        ],
+        only=only,
+        svg_image=svg_image,
+    )
     params = drawing_values(args)
     progress = not args.no_progress
 
@@ -71,7 +86,6 @@ def render_scenes(args: argparse.Namespace, drawings: tuple[str, ...], only: str
             defines=defines,
             resolution=resolution(args),
         )
-        no_image = getattr(args, "no_beauty_in_svg", False)
         return write_layered_outputs(
             result,
             outdir,
@@ -79,7 +93,7 @@ def render_scenes(args: argparse.Namespace, drawings: tuple[str, ...], only: str
             only=only,
             line_color=params.get("line_color"),
             paper=getattr(args, "paper", None),
-            svg_image="none" if no_image else getattr(args, "svg_image", "embed"),
+            svg_image=svg_image,
         )
 
     results = run_jobs(args.scenes, job, progress, args.traceback, on_result=result_line)

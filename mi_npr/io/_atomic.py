@@ -1,18 +1,27 @@
 """Atomic writes: every output goes to a temporary name in the target directory and is renamed
 into place only once complete, so a crash or a bad input never leaves a half-written file.
 
-Temporary names carry the writing process's PID (``.NAME.PID.XXXXXXXX.tmp``); they are
-removed on every exit path (exceptions, ``atexit``, SIGTERM through the CLI), and those of a run
-that was killed outright (SIGKILL) are swept by the next run that writes to the same directory.
-:func:`output_set` replaces a set of outputs (EXR, PNGs, SVG, XML) all together or not at all.
+Temporary names carry the writing process's PID and :data:`OWNER`, a digest of its host name
+and PID namespace (``.NAME.PID.OWNER.XXXXXXXX.tmp``); they are removed on every exit path
+(exceptions, ``atexit``, SIGTERM through the CLI), and those of a run that was killed outright
+(SIGKILL) are swept by the next run that writes to the same directory, only when certainly
+stale: written on this host in this PID namespace by a PID that is gone, or untouched for
+:data:`STALE_AFTER` seconds whoever wrote them. A PID of another host or container means
+nothing here (on the shared storage of a cluster, or in containers, that PID may be a live
+writer), so such a file, and a name of an older version without the owner, waits for the age
+bound. :func:`output_set` replaces a set of outputs (EXR, PNGs, SVG, XML) all together or not
+at all.
 """
 
 from __future__ import annotations
 
 import atexit
 import contextlib
+import hashlib
 import os
 import re
+import socket
+import stat
 import tempfile
 import time
 from collections.abc import Iterator
@@ -32,7 +41,10 @@ _FILE_MODE = 0o666 & ~_umask()
 
 
 def check_writable_dir(directory: str | os.PathLike[str], create: bool = False) -> Path:
-    """``directory`` as a Path, created if asked; :class:`OutputError` if it cannot be written."""
+    """``directory`` as a Path, created if asked; :class:`OutputError` if it cannot be written
+    (an empty name too: it is no folder, not the current one)."""
+    if not os.fspath(directory):
+        raise OutputError("output directory '': an empty name (give a folder, e.g. -o out)")
     d = Path(directory)
     if create:
         try:
@@ -46,16 +58,45 @@ def check_writable_dir(directory: str | os.PathLike[str], create: bool = False) 
     return d
 
 
+def _check_target(target: Path) -> None:
+    """:class:`OutputError` when ``target`` exists and is not a regular file (or a link to
+    one): a FIFO, a device or a socket is never replaced by an output."""
+    try:
+        mode = os.stat(target).st_mode
+    except OSError:
+        return  # nothing there (or a dangling link): the rename creates the file
+    if stat.S_ISDIR(mode):
+        raise OutputError(f"{target}: is a directory")
+    if not stat.S_ISREG(mode):
+        raise OutputError(f"{target}: not a regular file")
+
+
+def _owner() -> str:
+    try:
+        namespace = os.readlink("/proc/self/ns/pid")
+    except OSError:
+        namespace = ""
+    return hashlib.sha256(f"{socket.gethostname()}\0{namespace}".encode()).hexdigest()[:12]
+
+
+#: This host and PID namespace, as 12 hex digits in every temporary name (module docstring).
+OWNER = _owner()
+#: Seconds after which a temporary file is stale whoever wrote it: a live writer renames its
+#: files when its output set is complete, seconds after writing them.
+STALE_AFTER = 3600.0
+
 #: This process's temporary files not yet renamed into place (removed at exit, on SIGTERM).
 _LIVE: set[str] = set()
 #: Open output sets (:func:`output_set`), innermost last: their (temp, target) pairs.
 _SETS: list[list[tuple[str, Path]]] = []
 #: Directories already swept for stale temporary files by this process.
 _SWEPT: set[str] = set()
-#: When this process started (roughly: when mi-npr was imported).
-_STARTED = time.time()
-# ".NAME.PID.XXXXXXXX.tmp" (this version) and ".NAME.XXXXXXXX.tmp" (before the PID was added).
-_TEMP = re.compile(r"^\.(?P<name>.+?)\.(?:(?P<pid>\d+)\.)?(?P<rand>[a-z0-9_]{8})\.tmp$")
+# ".NAME.PID.OWNER.XXXXXXXX.tmp" (this version), ".NAME.PID.XXXXXXXX.tmp" and
+# ".NAME.XXXXXXXX.tmp" (older versions).
+_TEMP = re.compile(
+    r"^\.(?P<name>.+?)\.(?:(?P<pid>\d+)\.(?:(?P<owner>[0-9a-f]{12})\.)?)?"
+    r"(?P<rand>[a-z0-9_]{8})\.tmp$"
+)
 
 
 def temp_name_pid(name: str) -> int | bool | None:
@@ -65,6 +106,13 @@ def temp_name_pid(name: str) -> int | bool | None:
     if not m:
         return False
     return int(m["pid"]) if m["pid"] else None
+
+
+def temp_name_owner(name: str) -> str | None:
+    """The :data:`OWNER` in a temporary file name of this tool (``None``: an older name, or
+    not one of ours)."""
+    m = _TEMP.match(name)
+    return m["owner"] if m else None
 
 
 def _alive(pid: int) -> bool:
@@ -80,9 +128,10 @@ def _alive(pid: int) -> bool:
 
 
 def clean_stale(directory: str | os.PathLike[str]) -> list[Path]:
-    """Remove this tool's temporary files in ``directory`` left by runs that were killed
-    (SIGKILL, power loss): those whose PID is dead, and old-style names without a PID that are
-    older than this process. Returns what was removed; errors are ignored (best effort)."""
+    """Remove this tool's temporary files in ``directory`` that are certainly stale (module
+    docstring): this host and PID namespace's whose PID is gone (or is this process, which
+    does not use them), and any untouched for :data:`STALE_AFTER` seconds. Returns what was
+    removed; errors are ignored (best effort)."""
     removed: list[Path] = []
     try:
         entries = list(os.scandir(directory))
@@ -95,8 +144,9 @@ def clean_stale(directory: str | os.PathLike[str]) -> list[Path]:
         try:
             if not e.is_file(follow_symlinks=False):
                 continue
-            stale = (not _alive(pid)) if pid is not None else e.stat().st_mtime < _STARTED
-            if stale or (pid == os.getpid()):
+            ours = pid is not None and temp_name_owner(e.name) == OWNER
+            stale = (not _alive(pid) or pid == os.getpid()) if ours else False
+            if stale or time.time() - e.stat(follow_symlinks=False).st_mtime >= STALE_AFTER:
                 os.unlink(e.path)
                 removed.append(Path(e.path))
         except OSError:
@@ -153,17 +203,19 @@ def output_set() -> Iterator[None]:
 def atomic_output(path: str | os.PathLike[str]) -> Iterator[str]:
     """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds
     (inside an :func:`output_set`, at the set's end). The temporary name is
-    ``.NAME.PID.XXXXXXXX.tmp``; stale ones of killed runs are swept from the directory first."""
+    ``.NAME.PID.OWNER.XXXXXXXX.tmp``; stale ones of killed runs are swept from the directory
+    first."""
     target = Path(path)
     parent = target.parent if str(target.parent) else Path(".")
     check_writable_dir(parent)
+    _check_target(target)
     key = os.path.realpath(parent)
     if key not in _SWEPT:
         _SWEPT.add(key)
         clean_stale(parent)
     try:
         fd, tmp = tempfile.mkstemp(
-            prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=parent
+            prefix=f".{target.name}.{os.getpid()}.{OWNER}.", suffix=".tmp", dir=parent
         )
     except OSError as e:
         raise OutputError(f"{target}: cannot write ({e.strerror or e})") from None

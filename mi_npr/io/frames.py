@@ -5,10 +5,13 @@ like every other output."""
 
 from __future__ import annotations
 
+import contextlib
+import itertools
 import json
 import os
 import subprocess
-from collections.abc import Sequence
+import tempfile
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -42,16 +45,20 @@ def _even(a: np.ndarray) -> np.ndarray:
     return np.pad(a, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
 
 
-def write_video(path: str | os.PathLike[str], frames: Sequence[np.ndarray], fps: int = 24) -> Path:
+def write_video(path: str | os.PathLike[str], frames: Iterable[np.ndarray], fps: int = 24) -> Path:
     """Write uint8 (H, W, 3) ``frames`` as ``path`` (its suffix ``.mp4`` or ``.gif`` picks the
-    format). ``mp4`` needs the ``imageio-ffmpeg`` package (a dependency of mi-npr)."""
+    format). ``mp4`` needs the ``imageio-ffmpeg`` package (a dependency of mi-npr); its frames
+    are streamed to ffmpeg one at a time (``frames`` may be a generator reading them from
+    disk), while a ``gif`` holds them all (Pillow's encoder needs every frame)."""
     target = Path(path)
     fmt = check_format(target.suffix.lstrip("."))
-    if not frames:
-        raise ParameterError(f"{target}: no frames")
     if isinstance(fps, bool) or not isinstance(fps, int) or not 1 <= fps <= 240:
         raise ParameterError(f"fps = {fps!r}: must be in [1, 240]")
-    images = [np.ascontiguousarray(f, np.uint8) for f in frames]
+    it = iter(frames)
+    first = next(it, None)
+    if first is None:
+        raise ParameterError(f"{target}: no frames")
+    images = (np.ascontiguousarray(f, np.uint8) for f in itertools.chain([first], it))
     with atomic_output(target) as tmp:
         if fmt == "gif":
             pics = [Image.fromarray(a) for a in images]
@@ -64,25 +71,44 @@ def write_video(path: str | os.PathLike[str], frames: Sequence[np.ndarray], fps:
                 loop=0,
             )
         else:
-            _write_mp4(tmp, [_even(a) for a in images], fps, target)
+            _write_mp4(tmp, (_even(a) for a in images), fps, target)
     return target
 
 
-def _write_mp4(tmp: str, images: list[np.ndarray], fps: int, target: Path) -> None:
+def _write_mp4(tmp: str, images: Iterator[np.ndarray], fps: int, target: Path) -> None:
     try:  # imported here: only an mp4 needs it, and its import looks for an ffmpeg binary
         import imageio_ffmpeg
     except ImportError:
         raise OutputError(f"{target}: mp4 needs the imageio-ffmpeg package") from None
-    h, w = images[0].shape[:2]
+    first = next(images)
+    h, w = first.shape[:2]
     cmd = [
         imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error",
         "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{w}x{h}", "-r", str(fps), "-i", "-",
         "-an", "-vcodec", "libx264", "-pix_fmt", "yuv420p", "-f", "mp4", tmp,
     ]  # fmt: skip
-    proc = subprocess.run(cmd, input=b"".join(a.tobytes() for a in images), capture_output=True)
-    if proc.returncode != 0:
-        msg = proc.stderr.decode(errors="replace").strip().splitlines()
-        raise OutputError(f"{target}: ffmpeg failed ({msg[-1] if msg else proc.returncode})")
+    with tempfile.TemporaryFile() as err:
+        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=err)
+        assert proc.stdin is not None
+        try:
+            for a in itertools.chain([first], images):
+                if a.shape[:2] != (h, w):
+                    raise ParameterError(f"{target}: frames of {a.shape[1]} x {a.shape[0]} "
+                                         f"and {w} x {h}")  # fmt: skip
+                proc.stdin.write(a.tobytes())
+        except BrokenPipeError:
+            pass  # ffmpeg stopped: its message follows
+        except BaseException:
+            proc.kill()
+            raise
+        finally:
+            with contextlib.suppress(BrokenPipeError):
+                proc.stdin.close()
+            proc.wait()
+        if proc.returncode != 0:
+            err.seek(0)
+            msg = err.read().decode(errors="replace").strip().splitlines()
+            raise OutputError(f"{target}: ffmpeg failed ({msg[-1] if msg else proc.returncode})")
 
 
 def write_coherence(

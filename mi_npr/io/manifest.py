@@ -3,33 +3,116 @@
 One JSON object per line, one line per finished or failed job, appended by one process (the
 batch's client) with ``O_APPEND`` and a single ``write()`` of the whole line followed by
 ``fsync``: a line is in the file whole or not at all, and lines of concurrent writers never
-interleave. A reader skips a line that does not parse (a disk that filled mid-line), so a
-manifest is always readable; the last line of a job wins.
+interleave. A line cut short (a disk that filled mid-line) ends without a newline; the next
+row written starts with one, so it is never glued onto the cut line. A reader skips a line
+that does not parse, or whose fields have the wrong types (:data:`FIELDS`), with a warning
+naming the line, so a manifest is always readable; the last line of a job wins.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import os
-import xml.etree.ElementTree as ET
+import stat
+import warnings
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from ..errors import OutputError, ParameterError
+from ..errors import NprWarning, OutputError, ParameterError
+from ..scene import scene_files
 
 MANIFEST = "manifest.jsonl"
+
+_OPTIONAL_STR = (str, type(None))
+#: The types of a row's fields (a field may be absent; ``outputs`` and ``retried`` hold
+#: strings, ``sizes`` integers; ``bool`` is no integer here).
+FIELDS: dict[str, tuple[type, ...]] = {
+    "job": (str,),
+    "status": (str,),
+    "key": (str,),
+    "version": (str,),
+    "scene": (str,),
+    "scene_hash": (str,),
+    "view": (str,),
+    "outputs": (list,),
+    "sizes": (list,),
+    "retried": (list,),
+    "attempt": (int,),
+    "seconds": (int, float, type(None)),
+    "error": _OPTIONAL_STR,
+    "warning": _OPTIONAL_STR,
+    "worker": _OPTIONAL_STR,
+    "finished": _OPTIONAL_STR,
+    "camera": (dict, type(None)),
+    "flags": (dict,),
+}
+_ITEMS = {"outputs": str, "retried": str, "sizes": int}
+
+
+def row_problem(row: Any) -> str | None:
+    """Why ``row`` is no manifest row (:data:`FIELDS`), or ``None``."""
+    if not isinstance(row, dict):
+        return f"a {type(row).__name__}, not an object"
+    if "job" not in row:
+        return "no 'job'"
+    for name, types in FIELDS.items():
+        if name not in row:
+            continue
+        v = row[name]
+        if isinstance(v, bool) or not isinstance(v, types):
+            return f"{name!r} is a {type(v).__name__}"
+        item = _ITEMS.get(name)
+        if item is not None and not all(isinstance(x, item) and not isinstance(x, bool) for x in v):
+            return f"{name!r} holds something other than {item.__name__}s"
+    return None
+
+
+def _open_regular(path: str | os.PathLike[str], flags: int, what: str) -> int:
+    """``os.open`` that never blocks on a FIFO (``O_NONBLOCK``) and refuses anything but a
+    regular file: :class:`OutputError` "not a regular file" (a FIFO, device or socket)."""
+    try:
+        fd = os.open(path, flags | os.O_NONBLOCK, 0o666)
+    except FileNotFoundError:
+        raise
+    except OSError as e:  # a FIFO without a reader: ENXIO
+        check_manifest(path)
+        raise OutputError(f"{path}: cannot {what} the manifest ({e.strerror})") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise OutputError(f"{path}: not a regular file")
+    os.set_blocking(fd, True)
+    return fd
+
+
+def check_manifest(path: str | os.PathLike[str]) -> None:
+    """:class:`OutputError` when ``path`` exists and is not a regular file (checked before a
+    batch renders anything, so no job's work is lost to an unwritable manifest)."""
+    if os.path.lexists(path):
+        try:
+            mode = os.stat(path).st_mode
+        except OSError as e:
+            raise OutputError(f"{path}: cannot read the manifest ({e.strerror})") from None
+        if not stat.S_ISREG(mode):
+            raise OutputError(f"{path}: not a regular file")
 
 
 def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
     """Append ``row`` as one JSON line to ``path`` atomically (module docstring)."""
     data = (json.dumps(row, sort_keys=True, allow_nan=False, default=str) + "\n").encode()
+    fd = _open_regular(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, "write")
     try:
-        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
-    except OSError as e:
-        raise OutputError(f"{path}: cannot write the manifest ({e.strerror})") from None
-    try:
+        # Locked, so that the last byte read is that of a whole line of another writer, never
+        # of one still being copied in (where locks are not supported, the one client is the
+        # only writer anyway).
+        with contextlib.suppress(OSError):
+            fcntl.lockf(fd, fcntl.LOCK_EX)
+        size = os.fstat(fd).st_size
+        if size and os.pread(fd, 1, size - 1) != b"\n":  # a line cut short: start a new one
+            data = b"\n" + data
         n = os.write(fd, data)
         if n != len(data):  # a full disk: the reader skips the partial line
             raise OutputError(f"{path}: manifest line cut short (disk full?)")
@@ -41,60 +124,43 @@ def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
 
 
 def read_rows(path: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:
-    """The rows of a manifest in file order (none if it does not exist); bad lines skipped."""
+    """The rows of a manifest in file order (none if it does not exist); a line that does not
+    parse or is no row (:func:`row_problem`) is skipped with a
+    :class:`~mi_npr.errors.NprWarning` naming it (``manifest.jsonl:7: ...``)."""
     try:
-        f = open(path, "rb")
+        f = os.fdopen(_open_regular(path, os.O_RDONLY, "read"), "rb")
     except FileNotFoundError:
         return
-    except OSError as e:
-        raise OutputError(f"{path}: cannot read the manifest ({e.strerror})") from None
     with f:
-        for line in f:
+        for number, line in enumerate(f, 1):
+            if not line.strip():
+                continue
             try:
                 row = json.loads(line)
-            except (json.JSONDecodeError, UnicodeDecodeError):
-                continue
-            if isinstance(row, dict):
+                why = row_problem(row)
+            except (ValueError, RecursionError) as e:  # RecursionError: nesting too deep
+                why = f"not JSON ({type(e).__name__})"
+            if why is None:
                 yield row
+            else:
+                warnings.warn(f"{path}:{number}: row skipped: {why}", NprWarning, stacklevel=2)
 
 
-def _referenced(xml: Path, seen: set[Path]) -> list[Path]:
-    """The files an XML scene names (``filename`` values and ``<include>``\\ s, recursively),
-    those that exist; names holding a ``$default`` cannot be resolved and are skipped."""
-    try:
-        root = ET.parse(xml).getroot()
-    except (ET.ParseError, OSError):
-        return []
-    found: list[Path] = []
-    for el in root.iter():
-        names = []
-        if el.tag == "include" and "filename" in el.attrib:
-            names.append(el.attrib["filename"])
-        if el.attrib.get("name") == "filename" and "value" in el.attrib:
-            names.append(el.attrib["value"])
-        for name in names:
-            if "$" in name:
-                continue
-            p = (xml.parent / name).resolve()
-            if p in seen or not p.is_file():
-                continue
-            seen.add(p)
-            found.append(p)
-            if p.suffix.lower() == ".xml":
-                found.extend(_referenced(p, seen))
-    return found
-
-
-def scene_hash(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a scene file and of every file it references (meshes, textures, includes,
-    in document order, each with its name relative to the scene): ``sha256:<hex>``."""
+def scene_hash(path: str | os.PathLike[str], defines: Mapping[str, Any] | None = None) -> str:
+    """SHA-256 of a scene file and of every file it references with ``defines``
+    (:func:`mi_npr.scene.scene_files`: meshes, textures, includes, ``$name`` resolved), in
+    document order, each with its name relative to the scene: ``sha256:<hex>``. A referenced
+    file that does not exist counts by its name only."""
     xml = Path(path).resolve()
     h = hashlib.sha256()
     try:
-        files = [xml, *_referenced(xml, {xml})]
+        files = [xml, *scene_files(xml, defines)]
         for f in files:
             rel = os.path.relpath(f, xml.parent) if f != xml else ""
             h.update(rel.encode() + b"\0")
+            if f != xml and not f.is_file():
+                h.update(b"missing\0")
+                continue
             with open(f, "rb") as fh:
                 for block in iter(lambda fh=fh: fh.read(1 << 20), b""):
                     h.update(block)
