@@ -356,3 +356,26 @@ def test16_a_camera_file_nested_too_deeply_is_one_error(tmp_path):
     deep.write_text("[" * 200_000 + "]" * 200_000)
     with pytest.raises(ParameterError, match=r"deep.json: not a JSON file of cameras \(nested"):
         C.read_cameras(deep)
+
+
+def test18_a_stage_is_not_framed_but_a_big_neighbour_is():
+    """A shape far larger than the rest whose box holds their centres (a curved backdrop, a
+    dome) is a stage; one as large beside them (a house by a mailbox) is an object."""
+    import mitsuba as mi
+
+    from mi_npr.camera import objects_that_matter
+
+    def scene(big_at):
+        return mi.load_dict(
+            {
+                "type": "scene",
+                "ball": {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5},
+                "big": {
+                    "type": "cube",
+                    "to_world": mi.ScalarTransform4f().translate(big_at).scale([8, 4, 8]),
+                },
+            }
+        )
+
+    assert [s.id() for s in objects_that_matter(scene([0, 3, 0]))] == ["ball"]
+    assert sorted(s.id() for s in objects_that_matter(scene([20, 3, 0]))) == ["ball", "big"]

@@ -3,8 +3,9 @@
 **Framing.** A scene is framed by the bounding sphere (centre ``c``, radius ``R``) of the objects
 that matter (:func:`objects_that_matter`, or the shapes given, e.g. all but a floor): not the
 shapes of emitters (an area light), not flat shapes (floors, backdrops, walls: the box's smallest
-extent below :data:`FLAT` of its largest), not shapes far larger than the rest (a ground: a box
-diagonal above :data:`HUGE` times the median of the others'), unless that leaves nothing. A
+extent below :data:`FLAT` of its largest), not a stage (a ground, a curved backdrop, a dome: a
+box diagonal above :data:`HUGE` times the median of the others' and a box that holds all their
+centres; a house beside a mailbox is no stage), unless that leaves nothing. A
 pinhole camera with horizontal field of view ``fov`` and an image of ``W x H`` pixels sees the
 whole sphere from the distance ``R / sin(phi / 2)`` (:func:`fit_distance`), ``phi`` the smaller
 of its horizontal and vertical fields of view, ``tan(phi_y / 2) = tan(fov / 2) H / W``.
@@ -50,9 +51,9 @@ SceneLike = str | os.PathLike[str] | mi.Scene
 #: A shape is flat (a floor, a backdrop, a wall) when its box's smallest extent is below this
 #: share of its largest.
 FLAT = 1e-3
-#: A shape is far larger than the rest (a ground, a dome) when its box's diagonal exceeds this
-#: many times the median of the others'.
-HUGE = 8.0
+#: A shape is a ground, a backdrop or a dome when its box's diagonal exceeds this many times
+#: the median of the others' and its box holds all their centres.
+HUGE = 4.0
 
 
 def objects_that_matter(scene: mi.Scene) -> list[mi.Shape]:
@@ -67,10 +68,18 @@ def objects_that_matter(scene: mi.Scene) -> list[mi.Shape]:
         if not s.is_emitter() and np.all(np.isfinite(e)) and e.min() > FLAT * max(e.max(), 0)
     ]
     if len(keep) > 1:
-        diag = {id(s): float(np.linalg.norm(ext[shapes.index(s)])) for s in keep}
-        median = float(np.median(list(diag.values())))
-        small = [s for s in keep if diag[id(s)] <= HUGE * median]
-        keep = small or keep
+        box = {id(s): boxes[shapes.index(s)] for s in keep}
+        diag = {k: float(np.linalg.norm(b[1] - b[0])) for k, b in box.items()}
+        centre = {k: 0.5 * (b[0] + b[1]) for k, b in box.items()}
+
+        def stage(s: mi.Shape) -> bool:
+            others = [k for k in box if k != id(s)]
+            lo, hi = box[id(s)]
+            return diag[id(s)] > HUGE * float(np.median([diag[k] for k in others])) and all(
+                np.all((centre[k] >= lo) & (centre[k] <= hi)) for k in others
+            )
+
+        keep = [s for s in keep if not stage(s)] or keep
     return keep or shapes
 
 
