@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..foliage.plant import LEAF_MODES
 from ..foliage.styles import FOLIAGE_PARAMS, STYLES, make_scene
 from ._common import add_params, t
 
@@ -28,7 +29,7 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
     add_params(cmd, FOLIAGE_PARAMS, NAME)
     cmd.add_argument(
         "--leaves",
-        choices=("components", "triangles"),
+        choices=LEAF_MODES,
         default="components",
         help="a mesh's leaves: its connected components (default) or its triangles",
     )

@@ -10,6 +10,7 @@ from pathlib import Path
 from ..batch import check_outputs, check_unique_stems, run_jobs, scene_drawings
 from ..drawings import DRAWINGS
 from ..io import check_writable_dir, write_layered_outputs
+from ..io.svg import SVG_IMAGE
 from ..pipeline import render_layers
 from ..session import RENDER_PARAMS
 from ._common import (
@@ -32,7 +33,7 @@ SVG_IMAGE_HELP = "the beauty in <stem>_contours.svg: embedded once (default), li
 
 
 def add_svg_image(cmd: argparse.ArgumentParser, help: str) -> None:
-    cmd.add_argument("--svg-image", choices=("embed", "link", "none"), default="embed", help=help)
+    cmd.add_argument("--svg-image", choices=SVG_IMAGE, default="embed", help=help)
 
 
 def add_arguments(cmd: argparse.ArgumentParser) -> None:
