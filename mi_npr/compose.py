@@ -84,6 +84,22 @@ def with_overlay(gb: GBuffer, alpha: Any, color: Sequence[float]) -> GBuffer:
     return with_overlays(gb, [(alpha, color)])
 
 
+def over_raw(gb: GBuffer, alpha: Any, ink: Any) -> GBuffer:
+    """``gb`` with a premultiplied colour image laid over its raw beauty, ``R G B = raw (1 -
+    alpha) + ink``, in Dr.Jit (gradients kept through the beauty); the raw beauty kept in
+    ``beauty.R/G/B``. ``alpha``: (H, W) coverage, ``ink``: (H, W, 3) premultiplied linear RGB."""
+    raw = raw_beauty_layers(gb)
+    a = _coverage(alpha, gb.shape)
+    ink = np.asarray(ink, np.float32)
+    if ink.shape != (*gb.shape, 3):
+        raise ParameterError(f"over_raw: ink {ink.shape} does not match the image {gb.shape}")
+    out = {n: raw[c] for n, c in zip(L.RAW_RGB, L.RGB, strict=True)}
+    for i, c in enumerate(L.RGB):
+        v = mi.Float(raw[c].array) * (1.0 - a) + mi.Float(np.ascontiguousarray(ink[..., i]).ravel())
+        out[c] = mi.TensorXf(v, shape=gb.shape)
+    return gb.with_layers(out)
+
+
 def raw_beauty_layers(gb: GBuffer) -> dict[str, Any]:
     """The beauty before any overlay as ``R G B`` layers, Dr.Jit tensors with their AD graph:
     ``beauty.R/G/B`` if present, else ``R G B``."""

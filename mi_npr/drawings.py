@@ -23,12 +23,10 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from . import cryptomatte
 from . import layers as L
 from .antialias import aa_factor, antialiased_lines, check_aa_width
-from .compose import raw_beauty, with_overlay
+from .compose import over_raw, with_overlay
 from .contours.idmode import ID_MODES, OBJECT_MODES, IdMap, id_map
 from .contours.overlay import overlay as contour_overlay
 from .contours.trace import METHODS
@@ -45,7 +43,6 @@ from .raytree.render import add_raytree
 from .raytree.tracer import MAX_DEPTH
 from .session import SceneSession
 from .strokes.drawing import STROKES_PARAMS, depth_range_of, draw_strokes
-from .strokes.raster import on_background
 
 #: How a drawing meets the beauty (module docstring).
 OVERLAYS = ("beauty", "picture", "none")
@@ -268,13 +265,9 @@ def _draw_strokes(session: SceneSession, gb: GBuffer, p: Mapping[str, Any], **_:
         p,
         depth_range=depth_range_of(z) if z is not None else None,
     )
-    raw = raw_beauty(gb)
-    picture = on_background(done.alpha, done.ink, raw)
-    layers = {L.STROKES: done.alpha}
-    layers.update({c: np.ascontiguousarray(raw[..., i]) for i, c in enumerate(L.RAW_RGB)})
-    layers.update({c: np.ascontiguousarray(picture[..., i]) for i, c in enumerate(L.RGB)})
+    out = over_raw(gb, done.alpha, done.ink).with_layers({L.STROKES: done.alpha})
     meta = json.dumps({k: v for k, v in p.items() if v is not None})
-    out = gb.with_layers(layers).with_metadata(**{"mi_npr/strokes": meta})
+    out = out.with_metadata(**{"mi_npr/strokes": meta})
     return Drawn(out, {"vector_strokes": done})
 
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 W, H = 24, 16
-PLUGINS = ("npr_gbuffer", "npr_lines", "npr_contours", "npr_raytree")
+PLUGINS = ("npr_gbuffer", "npr_lines", "npr_contours", "npr_raytree", "npr_strokes")
 
 
 def _scene(plugin: str) -> mi.Scene:
