@@ -55,10 +55,20 @@ import mitsuba as mi
 import numpy as np
 
 from . import batch
+from .camera import fit_distance
 from .errors import InputError, ParameterError, one_line
 from .io._atomic import atomic_output, check_writable_dir
 from .meshes import write_ply
+from .params import MAX_RES, MAX_SPP, Param, integer_range, seed_rule
+from .views import FRAME_MARGIN
 
+#: The film, samples and seed of a dataset (``mi-npr dataset``'s flags).
+DATASET_PARAMS: tuple[Param, ...] = (
+    Param("width", int, 256, "image width in pixels", integer_range(1, MAX_RES)),
+    Param("height", int, 256, "image height in pixels", integer_range(1, MAX_RES)),
+    Param("spp", int, 16, "samples per pixel of the beauty", integer_range(1, MAX_SPP)),
+    Param("seed", int, 0, "seed of the random:N views and of the samplers", seed_rule),
+)
 #: Formats Mitsuba loads itself.
 NATIVE = (".obj", ".ply")
 #: Formats read by ``trimesh`` and written as PLY.
@@ -163,10 +173,21 @@ def _arrays(path: str) -> tuple[np.ndarray, np.ndarray]:
     together, nothing merged or dropped)."""
     import trimesh  # imported here: slow to import, needed only to build datasets
 
-    loaded = trimesh.load(path, force="mesh", process=False)
-    if isinstance(loaded, trimesh.Scene):  # force="mesh" gives an empty scene for no geometry
-        return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    loaded = trimesh.load(path, process=False)
+    if isinstance(loaded, trimesh.PointCloud):  # vertices without faces: "0 faces", not "empty"
+        return np.asarray(loaded.vertices, np.float64), np.zeros((0, 3), np.int64)
+    if isinstance(loaded, trimesh.Scene):  # glTF parts (and OBJ objects) as one mesh
+        loaded = loaded.to_mesh() if loaded.geometry else trimesh.Trimesh()
     return np.asarray(loaded.vertices, np.float64), np.asarray(loaded.faces, np.int64)
+
+
+def _welded(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(V, F)`` with coincident vertices merged: an STL repeats every corner per triangle, and
+    Mitsuba's smooth vertex normals (what the crease lines read) need the triangles joined."""
+    import trimesh  # imported here: see _arrays
+
+    m = trimesh.Trimesh(V, F, process=True)
+    return np.asarray(m.vertices), np.asarray(m.faces)
 
 
 def check_mesh(path: str, out: Path) -> Mesh:
@@ -179,9 +200,12 @@ def check_mesh(path: str, out: Path) -> Mesh:
         return Mesh(path, stem, error=f"{path}: unsupported format {ext or '(none)'}")
     try:
         digest = _digest(path)
+    except OSError as e:
+        return Mesh(path, stem, error=f"{path}: unreadable: {e.strerror or e}")
+    try:
         V, F = _arrays(path)
     except Exception as e:  # any failure of a reader is the file's problem
-        return Mesh(path, stem, error=f"{path}: unreadable: {one_line(e)}")
+        return Mesh(path, stem, digest, error=f"{path}: unreadable: {one_line(e)}")
     why = None
     if len(V) == 0:
         why = "empty: no vertices"
@@ -199,7 +223,7 @@ def check_mesh(path: str, out: Path) -> Mesh:
     if ext in CONVERTED:
         source = str(out / "meshes" / f"{stem}.ply")
         check_writable_dir(out / "meshes", create=True)
-        write_ply(source, V, F)
+        write_ply(source, *_welded(V, F))
     try:  # what Mitsuba loads is what renders: its box, and its refusals
         shape = mi.load_dict(
             {"type": "ply" if source.lower().endswith(".ply") else "obj", "filename": source}
@@ -223,9 +247,6 @@ def _num(v: float) -> str:
 def scene_xml(mesh: Mesh) -> str:
     """The studio scene (:data:`STUDIO`) of a good ``mesh``: the mesh normalised, the camera
     on +z raised by :data:`ELEVATION` at the distance that frames the unit sphere."""
-    from .camera import fit_distance
-    from .views import FRAME_MARGIN
-
     d = FRAME_MARGIN * fit_distance(1.0, FOV, (1, 1))
     e = math.radians(ELEVATION)
     origin = ", ".join(_num(v) for v in (0.0, d * math.sin(e), d * math.cos(e)))
