@@ -14,9 +14,9 @@ sensor.
 ``sphere:N``        N Fibonacci-lattice directions on the upper half of the viewing sphere
                     (best view's sphere: its up axis, centre and radius); ``sphere:N:all`` the
                     whole sphere (``sphere_000`` ...)
-``random:N[:SEED]`` N directions drawn uniformly on the whole viewing sphere (the sphere's
-                    centre, radius and up) by a generator seeded with SEED (default 0): the
-                    same spec gives the same views (``random_000`` ...)
+``random:N``        N directions drawn uniformly on the whole viewing sphere (the sphere's
+                    centre, radius and up) by a generator seeded with 0, ``random:N:SEED``
+                    with SEED: the same spec gives the same views (``random_000`` ...)
 ``best:K``          the K best-rated viewpoints of best view's search (``best:K:MEASURE`` with
                     MEASURE ``entropy``, the default, ``pb`` or ``curvature``), best first
                     (``best_0`` ...)
