@@ -35,6 +35,7 @@ def _meshes(folder):
     trimesh = pytest.importorskip("trimesh")
     V_, F_ = uv_sphere(12, 8)
     trimesh.Trimesh(V_, F_).export(folder / "ball.stl")
+    trimesh.Trimesh(*box((1.0, 2.0, 3.0))).export(folder / "brick.glb")
     bad = folder / "bad"
     bad.mkdir()
     write_ply(bad / "nofaces.ply", *box()[:1], np.zeros((0, 3), np.uint32))
@@ -62,7 +63,7 @@ def _views(rows, stem):
 def test01_every_view_has_its_files_and_manifest_row(made):
     out, rows = made
     good = [r for r in rows if r["view"] is not None]
-    assert len(good) == 3 * 2
+    assert len(good) == 4 * 2
     assert {r["status"] for r in good} == {"done"}
     for r in good:
         for kind in KINDS:
@@ -71,7 +72,11 @@ def test01_every_view_has_its_files_and_manifest_row(made):
         assert (out / r["scene"]).is_file()
     assert {r["triangles"] for r in _views(rows, "box.ply")} == {12}
     assert {r["triangles"] for r in _views(rows, "tet.obj")} == {4}
-    assert (out / "meshes" / "ball.ply").is_file()  # the STL, converted
+    assert (out / "meshes" / "ball.ply").is_file()  # the STL and the GLB, converted
+    assert {r["triangles"] for r in _views(rows, "brick.glb")} == {12}
+    assert _views(rows, "brick.glb")[0]["normalisation"]["scale"] == pytest.approx(
+        1 / math.sqrt(0.25 + 1 + 2.25)
+    )
     on_disk = [json.loads(line) for line in (out / D.INDEX).read_text().splitlines()]
     assert on_disk == rows
 
@@ -191,3 +196,33 @@ def test07_command(tmp_path):
     assert "strokes.json" not in done[0]["files"] and "lines.png" in done[0]["files"]
     r = run_cli("dataset", str(tmp_path / "tet.obj"), "-o", str(out), "--views", "best:x")
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "best:x" in r.stderr
+
+
+def test08_parquet_rows_are_the_manifest_rows(made):
+    pq = pytest.importorskip("pyarrow.parquet")
+    out, rows = made
+    table = pq.read_table(out / D.PARQUET)
+    assert table.column("view").to_pylist() == [r["view"] for r in rows]
+    files = [None if f is None else json.loads(f) for f in table.column("files").to_pylist()]
+    assert files == [r.get("files") for r in rows]
+
+
+def test09_local_cluster(tmp_path):
+    (tmp_path / "tet.obj").write_text(TET)
+    rows = D.make_dataset(
+        [tmp_path / "tet.obj"],
+        tmp_path / "out",
+        "orbit:2",
+        drawings=("lines",),
+        width=24,
+        height=24,
+        spp=1,
+        workers=1,
+        threads_per_worker=1,
+        progress=False,
+    )
+    assert [(r["view"], r["status"]) for r in rows] == [
+        ("orbit_000", "done"),
+        ("orbit_001", "done"),
+    ]
+    assert all((tmp_path / "out" / r["files"]["lines.png"]).is_file() for r in rows)
