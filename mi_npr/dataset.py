@@ -35,7 +35,8 @@ dataset's manifest, rewritten whole by every run: one row per view of every good
 is installed (nested fields as JSON text).
 
 Ambiguities resolved: two meshes of one file stem are refused before anything runs (their
-outputs would share a folder); a folder is searched for the formats above only, a file given by
+outputs would share a folder); a mesh named like a folder of OUT (:data:`RESERVED`) is a bad
+mesh; a folder is searched for the formats above only, a file given by
 name in another format is a bad mesh.
 """
 
@@ -77,6 +78,8 @@ CONVERTED = (".stl", ".gltf", ".glb")
 INDEX = "dataset.jsonl"
 #: Its Parquet copy (written when ``pyarrow`` is installed).
 PARQUET = "dataset.parquet"
+#: Folders of OUT that a mesh's outputs (``OUT/<stem>/``) must not share.
+RESERVED = ("scenes", "meshes")
 #: Horizontal field of view of the studio camera (degrees).
 FOV = 40.0
 #: Elevation of the studio camera above the equator (degrees): the orbit's height.
@@ -198,6 +201,13 @@ def check_mesh(path: str, out: Path) -> Mesh:
     ext = Path(path).suffix.lower()
     if ext not in NATIVE + CONVERTED:
         return Mesh(path, stem, error=f"{path}: unsupported format {ext or '(none)'}")
+    if stem in RESERVED:
+        return Mesh(
+            path,
+            stem,
+            error=f"{path}: its outputs would go to OUT/{stem}/, the dataset's "
+            f"folder of {stem}: rename the file",
+        )
     try:
         digest = _digest(path)
     except OSError as e:

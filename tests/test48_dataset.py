@@ -42,6 +42,7 @@ def _meshes(folder):
     (bad / "nan.obj").write_text("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n")
     (bad / "garbage.ply").write_bytes(b"this is no mesh\x00\x01")
     (bad / "empty.obj").write_text("")
+    (bad / "scenes.obj").write_text(TET)  # a good mesh whose outputs would mix with OUT/scenes
     return folder
 
 
@@ -108,7 +109,8 @@ def test02_normalised_box_is_framed_at_the_closed_form_distance(made):
 def test03_bad_meshes_are_rows_with_their_reason(made):
     _, rows = made
     skipped = {r["mesh"].rsplit("/", 1)[-1]: r for r in rows if r["status"] == "skipped"}
-    assert set(skipped) == {"nofaces.ply", "nan.obj", "garbage.ply", "empty.obj"}
+    assert set(skipped) == {"nofaces.ply", "nan.obj", "garbage.ply", "empty.obj", "scenes.obj"}
+    assert "rename" in skipped["scenes.obj"]["error"]
     assert "0 faces" in skipped["nofaces.ply"]["error"]
     assert "NaN" in skipped["nan.obj"]["error"]
     assert "unreadable" in skipped["garbage.ply"]["error"]
