@@ -134,10 +134,14 @@ class Mesh:
     error: str | None = None
 
 
-def find_meshes(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
+def find_meshes(
+    inputs: Sequence[str | os.PathLike[str]], exclude: str | os.PathLike[str] | None = None
+) -> list[str]:
     """The mesh files of ``inputs``, in order, each once: a file as given, a folder's files of
     the formats of :data:`NATIVE` and :data:`CONVERTED` (recursively, sorted), a glob's matches
-    (sorted); :class:`~mi_npr.errors.InputError` naming an input that gives none."""
+    (sorted); :class:`~mi_npr.errors.InputError` naming an input that gives none. A folder's or
+    a glob's files inside ``exclude`` are left out (OUT inside the folder searched: its
+    converted meshes are no inputs)."""
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     if not inputs:
@@ -159,8 +163,17 @@ def find_meshes(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
             hits = sorted(p for p in glob.glob(given, recursive=True) if os.path.isfile(p))
             if not hits:
                 raise InputError(f"{given}: the glob matches no file")
+        if hits != [given]:  # a folder's or a glob's files, not a file named
+            hits = [h for h in hits if not _under(h, exclude)]
         found.extend(os.path.abspath(h) for h in hits)
     return list(dict.fromkeys(found))
+
+
+def _under(path: str, folder: str | os.PathLike[str] | None) -> bool:
+    if folder is None:
+        return False
+    root = os.path.realpath(folder)
+    return os.path.commonpath([root, os.path.realpath(path)]) == root
 
 
 def _digest(path: str) -> str:
@@ -345,7 +358,8 @@ def make_dataset(
     if kind == "random" and ":" not in rest:
         views = f"{views}:{seed}"
     outdir = check_writable_dir(out, create=True).resolve()
-    paths = find_meshes(meshes if not isinstance(meshes, (str, os.PathLike)) else [meshes])
+    given = meshes if not isinstance(meshes, (str, os.PathLike)) else [meshes]
+    paths = find_meshes(given, exclude=outdir)
     stems: dict[str, str] = {}
     for p in paths:
         stem = Path(p).stem

@@ -228,3 +228,14 @@ def test09_local_cluster(tmp_path):
         ("orbit_001", "done"),
     ]
     assert all((tmp_path / "out" / r["files"]["lines.png"]).is_file() for r in rows)
+
+
+def test10_out_inside_the_folder_searched(tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    trimesh.Trimesh(*box()).export(tmp_path / "cube.stl")
+    kw = {"width": 16, "height": 16, "spp": 1, "workers": 0, "progress": False}
+    first = D.make_dataset([tmp_path], tmp_path / "out", "orbit:1", drawings=("lines",), **kw)
+    assert (tmp_path / "out" / "meshes" / "cube.ply").is_file()
+    # OUT/meshes/cube.ply is no input: no clash of stems, the same one mesh again
+    again = D.make_dataset([tmp_path], tmp_path / "out", "orbit:1", drawings=("lines",), **kw)
+    assert [r["mesh"] for r in again] == [r["mesh"] for r in first] == [str(tmp_path / "cube.stl")]
