@@ -14,6 +14,9 @@ sensor.
 ``sphere:N``        N Fibonacci-lattice directions on the upper half of the viewing sphere
                     (best view's sphere: its up axis, centre and radius); ``sphere:N:all`` the
                     whole sphere (``sphere_000`` ...)
+``random:N``        N directions drawn uniformly on the whole viewing sphere (the sphere's
+                    centre, radius and up) by a generator seeded with 0, ``random:N:SEED``
+                    with SEED: the same spec gives the same views (``random_000`` ...)
 ``best:K``          the K best-rated viewpoints of best view's search (``best:K:MEASURE`` with
                     MEASURE ``entropy``, the default, ``pb`` or ``curvature``), best first
                     (``best_0`` ...)
@@ -51,7 +54,7 @@ from .camera import (
     to_json,
 )
 from .errors import ParameterError
-from .params import MAX_BEST, MAX_VIEWS, Param, check_arg, integer_range
+from .params import MAX_BEST, MAX_VIEWS, SEED_MAX, Param, check_arg, integer_range
 from .viewpoint.search import check_shapes, search, viewing
 
 #: The counts inside ``mi-npr batch --views SPEC`` (``orbit:N``, ``sphere:N``, ``best:K``, the
@@ -60,6 +63,7 @@ VIEW_PARAMS: tuple[Param, ...] = (
     Param("orbit", int, 8, "views on the orbit", integer_range(1, MAX_VIEWS)),
     Param("sphere", int, 8, "views on the viewing sphere", integer_range(1, MAX_VIEWS)),
     Param("best", int, 1, "best-rated views", integer_range(1, MAX_BEST)),
+    Param("random", int, 8, "views in random directions", integer_range(1, MAX_VIEWS)),
     Param("file", int, 1, "cameras in a JSON file", integer_range(1, MAX_VIEWS)),
 )
 
@@ -70,9 +74,10 @@ FRAME_MARGIN = 1.1
 
 @dataclass(frozen=True)
 class ViewSpec:
-    """A parsed ``--views`` value: ``kind`` (``scene``, ``orbit``, ``sphere``, ``best``,
-    ``file``, ``cameras``), a count ``n``, an option (``all`` for ``sphere``, the measure for
-    ``best``) and, for a file or cameras given in memory, the cameras (their ids set)."""
+    """A parsed ``--views`` value: ``kind`` (``scene``, ``orbit``, ``sphere``, ``random``,
+    ``best``, ``file``, ``cameras``), a count ``n``, an option (``all`` for ``sphere``, the
+    measure for ``best``, the seed for ``random``) and, for a file or cameras given in memory,
+    the cameras (their ids set)."""
 
     text: str
     kind: str
@@ -137,16 +142,50 @@ def _view_param(kind: str) -> Any:
     return next(p for p in VIEW_PARAMS if p.name == kind)
 
 
+def _random_seed(text: str, option: str) -> int:
+    """The seed of ``random:N:SEED`` (0 when not given), checked like ``--seed``."""
+    if not option:
+        return 0
+    try:
+        seed = int(option)
+    except ValueError:
+        raise ParameterError(f"views = {text!r}: seed {option!r} is not an integer") from None
+    if not 0 <= seed <= SEED_MAX:
+        raise ParameterError(f"views = {text!r}: seed {seed} is not in [0, {SEED_MAX}]")
+    return seed
+
+
+def random_directions(n: int, seed: int = 0) -> np.ndarray:
+    """``n`` unit vectors drawn uniformly on the sphere (normalised 3D standard normals) by
+    numpy's PCG64 generator seeded with ``seed``, float64 (n, 3): the same ``(n, seed)`` gives
+    the same directions, and the first ``m`` of ``n`` are those of ``m``.
+
+    >>> d = random_directions(3, seed=1)
+    >>> d.shape, bool(np.allclose(np.linalg.norm(d, axis=1), 1.0))
+    ((3, 3), True)
+    >>> bool(np.array_equal(d[:2], random_directions(2, seed=1)))
+    True
+    """
+    rng = np.random.Generator(np.random.PCG64(seed))
+    out = np.empty((n, 3))
+    for k in range(n):  # one draw per view: a longer list keeps the views of a shorter one
+        v = rng.standard_normal(3)
+        while np.linalg.norm(v) < 1e-9:  # a direction needs a length
+            v = rng.standard_normal(3)
+        out[k] = v / np.linalg.norm(v)
+    return out
+
+
 def parse_views(text: str) -> ViewSpec:
     """Parse a ``--views`` value (module docstring); :class:`ParameterError` naming it."""
     if not isinstance(text, str) or not text:
         raise ParameterError(
-            f"views = {text!r}: expected scene, orbit:N, sphere:N, best:K or FILE.json"
+            f"views = {text!r}: expected scene, orbit:N, sphere:N, random:N, best:K or FILE.json"
         )
     if text == "scene":
         return ViewSpec(text, "scene")
     kind, sep, rest = text.partition(":")
-    if sep and kind in ("orbit", "sphere", "best"):
+    if sep and kind in ("orbit", "sphere", "random", "best"):
         count, _, option = rest.partition(":")
         try:
             n = int(count)
@@ -157,6 +196,8 @@ def parse_views(text: str) -> ViewSpec:
             raise ParameterError(f"views = {text!r}: orbit takes no option")
         if kind == "sphere" and option not in ("", "all", "upper"):
             raise ParameterError(f"views = {text!r}: sphere's option is 'all' or 'upper'")
+        if kind == "random":
+            option = str(_random_seed(text, option))
         if kind == "best":
             option = option or "entropy"
             if option not in _MEASURES:
@@ -169,26 +210,34 @@ def parse_views(text: str) -> ViewSpec:
         check_arg(text, _view_param("file"), len(cams))
         return ViewSpec(text, "file", len(cams), cameras=cams)
     raise ParameterError(
-        f"views = {text!r}: expected scene, orbit:N, sphere:N, best:K or FILE.json"
+        f"views = {text!r}: expected scene, orbit:N, sphere:N, random:N, best:K or FILE.json"
     )
 
 
 # -- cameras of a loaded scene ----------------------------------------------------------------
 
 
-def sphere(scene: Any, sensor: Any, n: int, upper: bool = True) -> list[Camera]:
+def sphere(
+    scene: Any, sensor: Any, n: int, upper: bool = True, seed: int | None = None
+) -> list[Camera]:
     """``n`` cameras at Fibonacci-lattice directions on a sphere about the objects that matter
     (:func:`mi_npr.camera.objects_that_matter`: not a floor, a backdrop or a light), at the
     distance from which their bounding sphere fits the film with a 10% margin, best view's up
     axis and fov (only the upper half with ``upper``), looking at its centre
-    (:func:`mi_npr.camera.sphere_directions`, :func:`mi_npr.camera.on_sphere`)."""
+    (:func:`mi_npr.camera.sphere_directions`, :func:`mi_npr.camera.on_sphere`). With ``seed``
+    the directions are :func:`random_directions` instead (the whole sphere; ``upper`` is
+    ignored)."""
 
-    view = viewing(scene, res=32, sensor=sensor, allow_below=not upper)
+    below = seed is not None or not upper
+    view = viewing(scene, res=32, sensor=sensor, allow_below=below)
     c, r, _ = bounding_sphere(scene)
     if np.all(np.isfinite(c)) and math.isfinite(r) and r > 0:
         distance = FRAME_MARGIN * fit_distance(r, view.fov, view.size)
-        view = viewing(scene, c, distance, 32, sensor=sensor, allow_below=not upper)
-    d = sphere_directions(n, view.up, upper)
+        view = viewing(scene, c, distance, 32, sensor=sensor, allow_below=below)
+    if seed is None:
+        d = sphere_directions(n, view.up, upper)
+    else:
+        d = random_directions(n, seed)
     return on_sphere(d, view.target, view.radius, view.up, view.fov)
 
 
@@ -221,6 +270,8 @@ def cameras(spec: ViewSpec, scene: Any, sensor: Any) -> list[tuple[str, Camera |
         cams = orbit(scene, spec.n, sensor=sensor)
     elif spec.kind == "sphere":
         cams = sphere(scene, sensor, spec.n, upper=spec.option != "all")
+    elif spec.kind == "random":
+        cams = sphere(scene, sensor, spec.n, seed=int(spec.option or 0))
     else:
         cams = best(scene, sensor, spec.n, spec.option)
     return list(zip(ids, cams, strict=True))

@@ -77,6 +77,7 @@ _ARGS = {
     "contours": ["x.xml", "-o", "out"],
     "raytree": ["x.xml", "-o", "out"],
     "batch": ["x.xml", "-o", "out"],
+    "dataset": ["x.obj", "-o", "out"],
     "best-view": ["x.xml", "--measure", "pb", "-o", "out"],
     "foliage": ["procedural:tree", "--style", "van_gogh", "-o", "x.xml"],
     "path": ["x.xml", "-o", "out", "--frames", "2"],

@@ -36,8 +36,8 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
         "--views",
         default="scene",
         metavar="SPEC",
-        help="scene (default), orbit:N, sphere:N[:all], best:K[:MEASURE] or a JSON file of "
-        "cameras (origin, target, up, fov)",
+        help="scene (default), orbit:N, sphere:N[:all], random:N[:SEED], best:K[:MEASURE] or a "
+        "JSON file of cameras (origin, target, up, fov)",
     )
     add_drawings(cmd, list(DRAWINGS))
     cmd.add_argument(

@@ -1,0 +1,241 @@
+"""``mi-npr dataset`` (:mod:`mi_npr.dataset`): meshes written here (an off-centre box as PLY, a
+tetrahedron as OBJ text, a sphere as STL) rendered from random views; the files of every view,
+the manifest rows, the normalisation against the closed-form framing distance, bad meshes
+reported and skipped, resume, and the random views' seed."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from mi_npr import dataset as D
+from mi_npr import views as V
+from mi_npr.errors import InputError, ParameterError
+from mi_npr.io import read_exr
+from mi_npr.meshes import box, uv_sphere, write_ply
+
+from .helpers import run_cli
+
+#: The box: sides 2, 1, 3 centred at (5, -2, 7); normalised, its corners lie on the unit sphere.
+SIZE, CENTRE = (2.0, 1.0, 3.0), (5.0, -2.0, 7.0)
+TET = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+PX = 48
+#: Distance from which a 40 degree camera sees the unit sphere with the 10% margin, written out.
+DISTANCE = 1.1 / math.sin(math.radians(20.0))
+KINDS = ("exr", "png", "lines.png", "lines.svg", "strokes.svg", "strokes.json")
+
+
+def _meshes(folder):
+    folder.mkdir()
+    write_ply(folder / "box.ply", *box(SIZE, CENTRE))
+    (folder / "tet.obj").write_text(TET)
+    trimesh = pytest.importorskip("trimesh")
+    V_, F_ = uv_sphere(12, 8)
+    trimesh.Trimesh(V_, F_).export(folder / "ball.stl")
+    trimesh.Trimesh(*box((1.0, 2.0, 3.0))).export(folder / "brick.glb")
+    bad = folder / "bad"
+    bad.mkdir()
+    write_ply(bad / "nofaces.ply", *box()[:1], np.zeros((0, 3), np.uint32))
+    (bad / "nan.obj").write_text("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n")
+    (bad / "garbage.ply").write_bytes(b"this is no mesh\x00\x01")
+    (bad / "empty.obj").write_text("")
+    (bad / "scenes.obj").write_text(TET)  # a good mesh whose outputs would mix with OUT/scenes
+    return folder
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    root = tmp_path_factory.mktemp("dataset")
+    meshes = _meshes(root / "meshes")
+    out = root / "out"
+    rows = D.make_dataset(
+        [meshes], out, "random:2", seed=3, width=PX, height=PX, spp=1, workers=0, progress=False
+    )
+    return out, rows
+
+
+def _views(rows, stem):
+    return [r for r in rows if r["view"] is not None and r["mesh"].endswith(stem)]
+
+
+def test01_every_view_has_its_files_and_manifest_row(made):
+    out, rows = made
+    good = [r for r in rows if r["view"] is not None]
+    assert len(good) == 4 * 2
+    assert {r["status"] for r in good} == {"done"}
+    for r in good:
+        for kind in KINDS:
+            assert (out / r["files"][kind]).is_file(), (r["mesh"], kind)
+        assert set(r["camera"]) >= {"origin", "target", "up", "fov"}
+        assert (out / r["scene"]).is_file()
+    assert {r["triangles"] for r in _views(rows, "box.ply")} == {12}
+    assert {r["triangles"] for r in _views(rows, "tet.obj")} == {4}
+    assert (out / "meshes" / "ball.ply").is_file()  # the STL and the GLB, converted
+    assert {r["triangles"] for r in _views(rows, "brick.glb")} == {12}
+    assert _views(rows, "brick.glb")[0]["normalisation"]["scale"] == pytest.approx(
+        1 / math.sqrt(0.25 + 1 + 2.25)
+    )
+    on_disk = [json.loads(line) for line in (out / D.INDEX).read_text().splitlines()]
+    assert on_disk == rows
+
+
+def test02_normalised_box_is_framed_at_the_closed_form_distance(made):
+    out, rows = made
+    s = np.array(SIZE) / 2
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * s
+    corners /= np.linalg.norm(s)  # the unit bounding sphere
+    pixel = 2 * DISTANCE * math.tan(math.radians(20.0)) / PX  # a pixel's width at the centre
+    for r in _views(rows, "box.ply"):
+        origin = np.array(r["camera"]["origin"])
+        assert np.linalg.norm(origin) == pytest.approx(DISTANCE, rel=1e-5)
+        assert np.allclose(r["camera"]["target"], 0.0, atol=1e-6)
+        d = origin / np.linalg.norm(origin)
+        gb = read_exr(out / r["files"]["exr"])
+        z = gb.numpy("Z")
+        ids = gb.numpy("object_id.V")
+        hit = np.isfinite(z)
+        assert np.array_equal(hit, ids > 0)
+        # the nearest point of a convex box is its corner nearest the camera, depth D - max(v.d)
+        nearest = DISTANCE - float(np.max(corners @ d))
+        assert nearest - 1e-4 <= z[hit].min() <= nearest + 2 * pixel
+        assert z[hit].max() <= DISTANCE + 1.0
+        border = np.concatenate([ids[0], ids[-1], ids[:, 0], ids[:, -1]])
+        assert not border.any()  # the unit sphere fits the image, so does the box
+
+
+def test03_bad_meshes_are_rows_with_their_reason(made):
+    _, rows = made
+    skipped = {r["mesh"].rsplit("/", 1)[-1]: r for r in rows if r["status"] == "skipped"}
+    assert set(skipped) == {"nofaces.ply", "nan.obj", "garbage.ply", "empty.obj", "scenes.obj"}
+    assert "rename" in skipped["scenes.obj"]["error"]
+    assert "0 faces" in skipped["nofaces.ply"]["error"]
+    assert "NaN" in skipped["nan.obj"]["error"]
+    assert "unreadable" in skipped["garbage.ply"]["error"]
+    assert "no vertices" in skipped["empty.obj"]["error"]
+    for name, r in skipped.items():
+        assert r["view"] is None and name in r["error"]
+
+
+def test04_resume_skips_the_views_done(made, tmp_path):
+    out, rows = made
+    log = (out / "manifest.jsonl").read_text()
+    times = {p: p.stat().st_mtime_ns for p in out.rglob("*.exr")}
+    again = D.make_dataset(
+        [out.parent / "meshes"],
+        out,
+        "random:2",
+        seed=3,
+        width=PX,
+        height=PX,
+        spp=1,
+        workers=0,
+        resume=True,
+        progress=False,
+    )
+    assert (out / "manifest.jsonl").read_text() == log  # no job ran
+    assert {p: p.stat().st_mtime_ns for p in out.rglob("*.exr")} == times
+    assert again == rows
+
+
+def test05_random_views_follow_their_seed(made):
+    _, rows = made
+    origins = np.array([r["camera"]["origin"] for r in _views(rows, "tet.obj")])
+    # uniform directions by the seed: normalised standard normals of PCG64(3), drawn here
+    rng = np.random.Generator(np.random.PCG64(3))
+    g = rng.standard_normal((2, 3))
+    assert np.allclose(origins / DISTANCE, g / np.linalg.norm(g, axis=1, keepdims=True), atol=1e-6)
+    assert np.array_equal(V.random_directions(5, 3), V.random_directions(5, 3))
+    assert not np.allclose(V.random_directions(5, 3), V.random_directions(5, 4))
+    assert V.parse_views("random:4:9").option == "9"
+    with pytest.raises(ParameterError, match="random:4:x"):
+        V.parse_views("random:4:x")
+
+
+def test06_inputs_refused_in_one_line(tmp_path):
+    with pytest.raises(InputError, match="no such file"):
+        D.make_dataset([tmp_path / "nothing.obj"], tmp_path / "o", workers=0)
+    with pytest.raises(InputError, match="matches no file"):
+        D.make_dataset([str(tmp_path / "*.stl")], tmp_path / "o", workers=0)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    (tmp_path / "a" / "m.obj").write_text(TET)
+    (tmp_path / "b" / "m.obj").write_text(TET)
+    with pytest.raises(ParameterError, match="'m'"):
+        D.make_dataset([tmp_path / "a", tmp_path / "b"], tmp_path / "o", workers=0)
+
+
+def test07_command(tmp_path):
+    (tmp_path / "tet.obj").write_text(TET)
+    (tmp_path / "bad.obj").write_text("v 0 0 0\n")
+    out = tmp_path / "out"
+    r = run_cli(
+        "dataset",
+        str(tmp_path / "*.obj"),
+        "-o",
+        str(out),
+        "--views",
+        "sphere:2",
+        "--width",
+        "24",
+        "--height",
+        "24",
+        "--spp",
+        "1",
+        "--lines",
+        "--workers",
+        "0",
+        "--no-progress",
+    )
+    assert r.returncode == 0, r.stderr
+    assert "2 of 2 views done, 1 meshes skipped" in r.stdout
+    assert "bad.obj: 0 faces" in r.stderr
+    rows = [json.loads(line) for line in (out / D.INDEX).read_text().splitlines()]
+    done = [x for x in rows if x["status"] == "done"]
+    assert [x["view"] for x in done] == ["sphere_000", "sphere_001"]
+    assert "strokes.json" not in done[0]["files"] and "lines.png" in done[0]["files"]
+    r = run_cli("dataset", str(tmp_path / "tet.obj"), "-o", str(out), "--views", "best:x")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and "best:x" in r.stderr
+
+
+def test08_parquet_rows_are_the_manifest_rows(made):
+    pq = pytest.importorskip("pyarrow.parquet")
+    out, rows = made
+    table = pq.read_table(out / D.PARQUET)
+    assert table.column("view").to_pylist() == [r["view"] for r in rows]
+    files = [None if f is None else json.loads(f) for f in table.column("files").to_pylist()]
+    assert files == [r.get("files") for r in rows]
+
+
+def test09_local_cluster(tmp_path):
+    (tmp_path / "tet.obj").write_text(TET)
+    rows = D.make_dataset(
+        [tmp_path / "tet.obj"],
+        tmp_path / "out",
+        "orbit:2",
+        drawings=("lines",),
+        width=24,
+        height=24,
+        spp=1,
+        workers=1,
+        threads_per_worker=1,
+        progress=False,
+    )
+    assert [(r["view"], r["status"]) for r in rows] == [
+        ("orbit_000", "done"),
+        ("orbit_001", "done"),
+    ]
+    assert all((tmp_path / "out" / r["files"]["lines.png"]).is_file() for r in rows)
+
+
+def test10_out_inside_the_folder_searched(tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    trimesh.Trimesh(*box()).export(tmp_path / "cube.stl")
+    kw = {"width": 16, "height": 16, "spp": 1, "workers": 0, "progress": False}
+    first = D.make_dataset([tmp_path], tmp_path / "out", "orbit:1", drawings=("lines",), **kw)
+    assert (tmp_path / "out" / "meshes" / "cube.ply").is_file()
+    # OUT/meshes/cube.ply is no input: no clash of stems, the same one mesh again
+    again = D.make_dataset([tmp_path], tmp_path / "out", "orbit:1", drawings=("lines",), **kw)
+    assert [r["mesh"] for r in again] == [r["mesh"] for r in first] == [str(tmp_path / "cube.stl")]
