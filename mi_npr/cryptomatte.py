@@ -173,7 +173,12 @@ def coverage(
     """
     acc = dr.zeros(mi.Float, check_cells(width, height, n_ids))
     _accumulate(acc, x, y, ids, n_ids, width, height, rfilter)
-    table = to_numpy(acc).astype(np.float64).reshape(width * height, n_ids + 1)
+    return _shares(acc, width * height, n_ids)
+
+
+def _shares(acc: Any, pixels: int, n_ids: int) -> np.ndarray:
+    """The accumulated weights as each pixel's shares (rows summing to 1, or 0 if empty)."""
+    table = to_numpy(acc).astype(np.float64).reshape(pixels, n_ids + 1)
     total = table.sum(axis=1, keepdims=True)
     return np.divide(table, total, out=np.zeros_like(table), where=total > 0)
 
@@ -283,9 +288,7 @@ def cryptomatte(
         _accumulate(acc, xs, ys, obj, n_obj, w, h, rfilter)
         del xs, ys, obj
         dr.flush_malloc_cache()  # Dr.Jit keeps freed buffers for reuse: give the pass's back
-    cov = to_numpy(acc).astype(np.float64).reshape(w * h, n_obj + 1)
-    total = cov.sum(axis=1, keepdims=True)
-    cov_obj = np.divide(cov, total, out=np.zeros_like(cov), where=total > 0)
+    cov_obj = _shares(acc, w * h, n_obj)
     obj_names = [table.names[k] for k in range(1, n_obj + 1)]
     obj_ids = np.array([name_id(n) for n in obj_names], np.float32)
     layers = ranked_layers(cov_obj, obj_ids, OBJECT, w, h, levels)

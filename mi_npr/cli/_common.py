@@ -237,6 +237,22 @@ def add_cluster(cmd: argparse.ArgumentParser, who: str) -> None:
     add_params(cmd, CLUSTER_PARAMS[2:], who)
 
 
+def cluster_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The values of :func:`add_cluster`'s flags, as :func:`mi_npr.batch.run`'s keywords."""
+    names = ("workers", "threads_per_worker", "scheduler", "resume", "retries", "job_timeout")
+    return {k: getattr(args, k) for k in names}
+
+
+def add_paper(cmd: argparse.ArgumentParser, stem: str) -> None:
+    """``--paper``: the paper colour of the lines drawing's picture."""
+    cmd.add_argument(
+        "--paper",
+        type=rgb,
+        metavar="R,G,B",
+        help=f"paper colour of {stem}_lines.png (linear RGB, default white 1,1,1)",
+    )
+
+
 def add_drawings(
     cmd: argparse.ArgumentParser, names: Sequence[str], *, switches: bool = True
 ) -> None:

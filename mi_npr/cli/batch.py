@@ -14,12 +14,13 @@ from ..session import RENDER_PARAMS
 from ._common import (
     add_cluster,
     add_drawings,
+    add_paper,
     add_scenes,
     asked_drawings,
+    cluster_options,
     drawing_values,
     fail,
     npr_warnings,
-    rgb,
     spp_and_defines,
     t,
     warn,
@@ -40,12 +41,7 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
         "JSON file of cameras (origin, target, up, fov)",
     )
     add_drawings(cmd, list(DRAWINGS))
-    cmd.add_argument(
-        "--paper",
-        type=rgb,
-        metavar="R,G,B",
-        help="paper colour of <view>_lines.png (linear RGB, default white 1,1,1)",
-    )
+    add_paper(cmd, "<view>")
     add_cluster(cmd, NAME)
 
 
@@ -64,12 +60,7 @@ def run(args: argparse.Namespace) -> int:
             spp=None if spp is None else int(spp),
             seed=args.seed,
             defines=defines,
-            workers=args.workers,
-            threads_per_worker=args.threads_per_worker,
-            scheduler=args.scheduler,
-            resume=args.resume,
-            retries=args.retries,
-            job_timeout=args.job_timeout,
+            **cluster_options(args),
             progress=not args.no_progress,
             line_color=params.get("line_color"),
             paper=args.paper,

@@ -15,6 +15,7 @@ from ._common import (
     add_drawings,
     add_params,
     asked_drawings,
+    cluster_options,
     drawing_values,
     fail,
     npr_warnings,
@@ -63,13 +64,8 @@ def run(args: argparse.Namespace) -> int:
             width=args.width,
             height=args.height,
             spp=args.spp,
-            workers=args.workers,
-            resume=args.resume,
             params=drawing_values(args),
-            threads_per_worker=args.threads_per_worker,
-            scheduler=args.scheduler,
-            retries=args.retries,
-            job_timeout=args.job_timeout,
+            **cluster_options(args),
             progress=not args.no_progress,
         )
     skipped = [r for r in rows if r["status"] == "skipped"]

@@ -24,6 +24,7 @@ from ._common import (
     add_render_settings,
     add_scene,
     asked_drawings,
+    cluster_options,
     drawing_values,
     npr_warnings,
     resolution,
@@ -86,13 +87,9 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
 
 def _cluster(args: argparse.Namespace) -> dict | None:
     """The frames as batch jobs when a cluster option is given, else ``None``."""
-    given = {
-        "workers": args.workers,
-        "threads_per_worker": args.threads_per_worker,
-        "scheduler": args.scheduler,
-        "job_timeout": args.job_timeout,
-    }
-    given = {k: v for k, v in given.items() if v is not None}
+    options = cluster_options(args)
+    flags = ("workers", "threads_per_worker", "scheduler", "job_timeout")
+    given = {k: options[k] for k in flags if options[k] is not None}
     if not given and not args.resume and not args.retries:
         return None
     return {**given, "resume": args.resume, "retries": args.retries}

@@ -15,13 +15,13 @@ from ..pipeline import render_layers
 from ..session import RENDER_PARAMS
 from ._common import (
     add_drawings,
+    add_paper,
     add_scenes,
     asked_drawings,
     drawing_values,
     exit_code,
     resolution,
     result_line,
-    rgb,
     spp_and_defines,
 )
 
@@ -39,12 +39,7 @@ def add_svg_image(cmd: argparse.ArgumentParser, help: str) -> None:
 def add_arguments(cmd: argparse.ArgumentParser) -> None:
     add_scenes(cmd, NAME)
     add_drawings(cmd, list(DRAWINGS))
-    cmd.add_argument(
-        "--paper",
-        type=rgb,
-        metavar="R,G,B",
-        help="paper colour of <stem>_lines.png (linear RGB, default white 1,1,1)",
-    )
+    add_paper(cmd, "<stem>")
     add_svg_image(cmd, SVG_IMAGE_HELP)
     cmd.add_argument(
         "--no-beauty-in-svg", action="store_true", help="do not embed the beauty in the SVG"
