@@ -305,11 +305,11 @@ def test05_a_job_without_progress_is_stopped_and_the_batch_ends(tmp_path):
     with mi_npr.batch.local_cluster(2) as cluster, Client(cluster) as client:
         client.run(_hang_once, str(tmp_path / "hung"))
         rows = mi_npr.batch.run([xml], "orbit:3", client, out=out, width=16, height=12, spp=1,
-                                progress=False, job_timeout=5, retries=1)  # fmt: skip
+                                progress=False, job_timeout=10, retries=1)  # fmt: skip
     assert [r["status"] for r in rows] == ["done"] * 3
     assert [r["attempt"] for r in rows] == [1, 2, 1]
     (why,) = rows[1]["retried"]
-    assert why.startswith("sphere/orbit_001: no progress in 5 s (job timeout): stopped, worker")
+    assert why.startswith("sphere/orbit_001: no progress in 10 s (job timeout): stopped, worker")
     assert rows[0].get("retried") is None and rows[2].get("retried") is None
     manifest = {r["job"]: r for r in _rows(out)}  # the manifest says it too
     assert manifest["sphere/orbit_001"]["retried"] == [why]
