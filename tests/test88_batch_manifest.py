@@ -333,3 +333,19 @@ def test12_cut_lines_bad_rows_and_outputs_outside_out(write_scene, tmp_path):
     assert again[1] != rows[1] and again[1]["status"] == "done"  # outside OUT: done again
     with pytest.warns(mi_npr.errors.NprWarning):  # the same three lines, still there
         assert [r["job"] for r in read_rows(manifest)][-1] == "scene/orbit_001"
+
+
+def test13_no_bars_off_a_terminal_but_every_line(write_scene, tmp_path, capsys):
+    """Without a terminal (a log file, a pipe, this test) no progress bar is drawn, even
+    without --no-progress, and every failure still gets its line."""
+    good = write_scene(BODY, name="good.xml")
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<scene version='3.0.0'><shape type='nosuchshape'/></scene>")
+    code, err = _main(["batch", str(good), str(bad), "-o", str(tmp_path / "o"), "--workers", "0"],
+                      capsys)  # fmt: skip
+    assert code == 1
+    assert "|" not in err and "job/s" not in err  # no tqdm bar
+    assert err.count("mi-npr: error: bad/scene") == 1
+    code, err = _main(["render", str(good), str(bad), "-o", str(tmp_path / "r")], capsys)
+    assert code == 1 and "|" not in err and "scene/s" not in err
+    assert "bad.xml" in err

@@ -294,6 +294,12 @@ def drawing_values(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+def progress(args: argparse.Namespace) -> bool:
+    """Progress bars: on a terminal only (a log file or a pipe gets the lines alone), and not
+    with ``--no-progress``."""
+    return not args.no_progress and sys.stderr.isatty()
+
+
 def resolution(args: argparse.Namespace) -> tuple[int | None, int | None] | None:
     """``--width``/``--height`` as a film size (``None``: the scene's)."""
     if args.width is None and args.height is None:

@@ -21,6 +21,7 @@ from ._common import (
     drawing_values,
     fail,
     npr_warnings,
+    progress,
     spp_and_defines,
     t,
     warn,
@@ -46,6 +47,7 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    bars = progress(args)
     params = drawing_values(args)
     spp, defines = spp_and_defines(args)
     with npr_warnings():
@@ -61,12 +63,12 @@ def run(args: argparse.Namespace) -> int:
             seed=args.seed,
             defines=defines,
             **cluster_options(args),
-            progress=not args.no_progress,
+            progress=bars,
             line_color=params.get("line_color"),
             paper=args.paper,
         )
     failed = [r for r in rows if r.get("status") != "done"]
-    if args.no_progress:  # else the progress bar printed each line as its job ended
+    if not bars:  # else the progress bar printed each line as its job ended
         for r in failed:
             fail(str(r.get("error")))
         for r in rows:

@@ -19,6 +19,7 @@ from ._common import (
     drawing_values,
     fail,
     npr_warnings,
+    progress,
     t,
     warn,
 )
@@ -53,6 +54,7 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    bars = progress(args)
     drawings = asked_drawings(args) or DEFAULT_DRAWINGS
     with npr_warnings():
         rows = make_dataset(
@@ -66,13 +68,13 @@ def run(args: argparse.Namespace) -> int:
             spp=args.spp,
             params=drawing_values(args),
             **cluster_options(args),
-            progress=not args.no_progress,
+            progress=bars,
         )
     skipped = [r for r in rows if r["status"] == "skipped"]
     failed = [r for r in rows if r["status"] == "failed"]
     for r in skipped:
         warn(f"skipped {r['error']}")
-    if args.no_progress:  # else the progress bar printed each line as its job ended
+    if not bars:  # else the progress bar printed each line as its job ended
         for r in failed:
             fail(str(r.get("error")))
     views = [r for r in rows if r["view"] is not None]

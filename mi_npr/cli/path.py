@@ -5,7 +5,6 @@ videos (:func:`mi_npr.paths.render_path`)."""
 from __future__ import annotations
 
 import argparse
-import sys
 
 from ..batch import CLUSTER_PARAMS
 from ..drawings import DRAWINGS
@@ -27,6 +26,7 @@ from ._common import (
     cluster_options,
     drawing_values,
     npr_warnings,
+    progress,
     resolution,
     spp_and_defines,
     t,
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
             video=args.video,
             fps=args.fps,
             variants=args.variants,
-            progress=not args.no_progress and sys.stderr.isatty(),
+            progress=progress(args),
             cluster=_cluster(args),
         )
     c = result.coherence

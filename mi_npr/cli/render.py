@@ -20,6 +20,7 @@ from ._common import (
     asked_drawings,
     drawing_values,
     exit_code,
+    progress,
     resolution,
     result_line,
     spp_and_defines,
@@ -68,7 +69,7 @@ def render_scenes(args: argparse.Namespace, drawings: tuple[str, ...], only: str
         svg_image=svg_image,
     )
     params = drawing_values(args)
-    progress = not args.no_progress
+    bars = progress(args)
 
     def job(scene: str) -> list[Path]:
         result = render_layers(
@@ -77,7 +78,7 @@ def render_scenes(args: argparse.Namespace, drawings: tuple[str, ...], only: str
             params,
             scene_drawings=only is None,
             seed=args.seed,
-            progress=progress,
+            progress=bars,
             spp=spp,
             defines=defines,
             resolution=resolution(args),
@@ -92,7 +93,7 @@ def render_scenes(args: argparse.Namespace, drawings: tuple[str, ...], only: str
             svg_image=svg_image,
         )
 
-    results = run_jobs(args.scenes, job, progress, args.traceback, on_result=result_line)
+    results = run_jobs(args.scenes, job, bars, args.traceback, on_result=result_line)
     return exit_code(results)
 
 
