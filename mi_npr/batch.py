@@ -263,6 +263,10 @@ def run_jobs(
 #: Scenes a worker keeps loaded (least recently used goes first).
 SCENE_CACHE = 4
 
+#: Where a LocalCluster's dashboard listens: this machine only, on a free port (``host:port``;
+#: ``:8787`` would be every interface).
+DASHBOARD = "127.0.0.1:0"
+
 #: Where the jobs run (``mi-npr batch``, and ``mi-npr path`` with its frames as jobs).
 CLUSTER_PARAMS: tuple[Param, ...] = (
     Param(
@@ -621,6 +625,8 @@ def run(
     line_color: Sequence[float] | None = None,
     paper: Sequence[float] | None = None,
     flat: bool = False,
+    dashboard: str = DASHBOARD,
+    on_dashboard: Callable[[str], None] | None = None,
 ) -> list[dict[str, Any]]:
     """Render every scene of ``scenes`` from every view of ``views`` (module docstring: a
     ``--views`` spec, or a list of :class:`~mi_npr.camera.Camera`, each named by its ``id``)
@@ -633,7 +639,9 @@ def run(
     ``distributed.comm.timeouts.connect``, 30 s by default) to connect to; else a
     ``LocalCluster`` of ``workers`` processes started and closed here (default: one per core;
     never more than jobs, and more than cores only when asked, with a warning); ``workers=0``
-    renders in this process, without Dask.
+    renders in this process, without Dask. The LocalCluster's dashboard listens on
+    ``dashboard`` (``host:port``; default this machine only, a free port) and its link is
+    given to ``on_dashboard``.
 
     On Dask, a job that goes without progress for longer than its bound (``job_timeout``
     seconds per step, default :data:`JOB_TIMEOUT` plus its samples over
@@ -727,7 +735,17 @@ def run(
             if client is None and scheduler is None and workers == 0:
                 _run_here(settings, pending, retries, record)
             else:
-                _run_dask(settings, pending, retries, record, client, scheduler, workers)
+                _run_dask(
+                    settings,
+                    pending,
+                    retries,
+                    record,
+                    client,
+                    scheduler,
+                    workers,
+                    dashboard,
+                    on_dashboard,
+                )
     finally:
         if bar is not None:
             bar.close()
@@ -830,7 +848,7 @@ def local_cluster(workers: int, **kwargs: Any) -> Any:
     import dask  # imported here: see _worker_name
     from distributed import LocalCluster
 
-    options = dict(threads_per_worker=1, processes=True, dashboard_address=":0")
+    options = dict(threads_per_worker=1, processes=True, dashboard_address=DASHBOARD)
     options.update(silence_logs=logging.ERROR, **kwargs)
     with dask.config.set({"distributed.scheduler.worker-saturation": float("inf")}):
         return LocalCluster(n_workers=workers, **options)
@@ -925,6 +943,8 @@ def _run_dask(
     client: Any,
     scheduler: str | None,
     workers: int | None,
+    dashboard: str = DASHBOARD,
+    on_dashboard: Callable[[str], None] | None = None,
 ) -> None:
     """The batch on Dask: one task per job, submitted scene by scene; a failed task (or one
     whose worker died, or one stopped past its bound without progress) is submitted again
@@ -938,9 +958,11 @@ def _run_dask(
                 client = own_client = _connect(scheduler)
             else:
                 n, threads = _default_workers(workers, len(jobs), settings.threads)
-                own_cluster = local_cluster(n)
+                own_cluster = local_cluster(n, dashboard_address=dashboard)
                 settings = replace(settings, threads=threads)
                 client = own_client = Client(own_cluster)
+                if on_dashboard is not None and own_cluster.dashboard_link:
+                    on_dashboard(str(own_cluster.dashboard_link))
         _watch(settings, jobs, retries, record, client, as_completed)
     finally:
         if own_client is not None:

@@ -640,6 +640,8 @@ def _frames_as_jobs(
         "resume",
         "retries",
         "job_timeout",
+        "dashboard",
+        "on_dashboard",
     }
     unknown = sorted(set(cluster) - allowed)
     if unknown:

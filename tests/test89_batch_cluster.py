@@ -374,3 +374,29 @@ def test07_bad_schedulers_fail_within_the_bound_naming_the_flag(tmp_path, capsys
                 mi_npr.batch.run([xml], out=tmp_path / "o", scheduler=bad, progress=False)
             assert f"--scheduler {bad!r}: not a scheduler address" in str(e.value)
             assert "\n" not in str(e.value)
+
+
+def test08_the_dashboard_serves_on_localhost_and_its_link_is_printed(tmp_path, capsys):
+    """The local cluster's dashboard (bokeh) answers at the printed link while the batch runs,
+    bound to this machine only."""
+    import urllib.request
+
+    seen: list[str] = []
+
+    def visit(link: str) -> None:  # called while the cluster is up
+        with urllib.request.urlopen(link, timeout=30) as r:
+            seen.append(f"{r.status} {r.read(200)[:15]!r}")
+        seen.append(link)
+
+    rows = mi_npr.batch.run([_sphere(tmp_path)], "orbit:2", out=tmp_path / "o", width=16,
+                            height=12, spp=1, workers=1, progress=False,
+                            on_dashboard=visit)  # fmt: skip
+    assert [r["status"] for r in rows] == ["done", "done"]
+    status, link = seen
+    assert status.startswith("200") and link.startswith("http://127.0.0.1:")
+    # the command prints it
+    argv = ["batch", str(_sphere(tmp_path)), "-o", str(tmp_path / "c"), "--workers", "1",
+            "--width", "16", "--height", "12", "--spp", "1", "--no-progress"]  # fmt: skip
+    assert mi_npr.cli.main(argv) == 0
+    err = capsys.readouterr().err
+    assert "mi-npr: dashboard http://127.0.0.1:" in err

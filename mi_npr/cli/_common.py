@@ -16,7 +16,7 @@ import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
-from ..batch import CLUSTER_PARAMS, parse_define
+from ..batch import CLUSTER_PARAMS, DASHBOARD, parse_define
 from ..drawings import DRAWINGS, shared_params
 from ..errors import NprWarning, ParameterError, for_terminal
 from ..memory import parse_size
@@ -235,12 +235,25 @@ def add_cluster(cmd: argparse.ArgumentParser, who: str) -> None:
         help="skip the jobs OUT/manifest.jsonl shows done with the same scene and flags",
     )
     add_params(cmd, CLUSTER_PARAMS[2:], who)
+    cmd.add_argument(
+        "--dashboard",
+        default=DASHBOARD,
+        metavar="HOST:PORT",
+        help="where the local cluster's dashboard listens (default: this machine only, a free "
+        "port; :8787 for every interface); its link is printed",
+    )
 
 
 def cluster_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The values of :func:`add_cluster`'s flags, as :func:`mi_npr.batch.run`'s keywords."""
+    """The values of :func:`add_cluster`'s flags, as :func:`mi_npr.batch.run`'s keywords (the
+    dashboard's link printed on stderr)."""
     names = ("workers", "threads_per_worker", "scheduler", "resume", "retries", "job_timeout")
-    return {k: getattr(args, k) for k in names}
+    options = {k: getattr(args, k) for k in names}
+    options["dashboard"] = args.dashboard
+    options["on_dashboard"] = lambda link: print(
+        f"{PROG}: dashboard {link}", file=sys.stderr, flush=True
+    )
+    return options
 
 
 def add_paper(cmd: argparse.ArgumentParser, stem: str) -> None:

@@ -92,7 +92,13 @@ def _cluster(args: argparse.Namespace) -> dict | None:
     given = {k: options[k] for k in flags if options[k] is not None}
     if not given and not args.resume and not args.retries:
         return None
-    return {**given, "resume": args.resume, "retries": args.retries}
+    return {
+        **given,
+        "resume": args.resume,
+        "retries": args.retries,
+        "dashboard": options["dashboard"],
+        "on_dashboard": options["on_dashboard"],
+    }
 
 
 def run(args: argparse.Namespace) -> int:
