@@ -87,6 +87,10 @@ class Drawing:
     #: could not finish is refused before its beauty is paid for).
     preflight: Callable[[SceneSession], None] = lambda session: None
 
+    def __post_init__(self) -> None:
+        if self.overlay not in OVERLAYS:
+            raise ValueError(f"drawing {self.name}: overlay {self.overlay!r} not in {OVERLAYS}")
+
     def param(self, name: str) -> Param:
         """The table's entry ``name``."""
         for p in self.params:
