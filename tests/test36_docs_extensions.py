@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -19,6 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _load(name: str) -> ModuleType:
+    if str(ROOT / "docs/_ext") not in sys.path:  # as docs/conf.py: the extensions' own helpers
+        sys.path.insert(0, str(ROOT / "docs/_ext"))
     spec = importlib.util.spec_from_file_location(
         f"_docs_ext_{name}", ROOT / "docs/_ext" / f"{name}.py"
     )

@@ -19,6 +19,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from doc_tables import table
 from docutils import nodes
 from sphinx.application import Sphinx
 from sphinx.util.docutils import SphinxDirective
@@ -91,26 +92,15 @@ def records(value: Any) -> tuple[list[tuple[str, dict]], dict[str, Any]] | None:
 
 
 def _table(header: list[str], rows: list[list[str]], first_literal: bool = True) -> nodes.table:
-    table = nodes.table(classes=["bench"], align="left")
-    tgroup = nodes.tgroup(cols=len(header))
-    table += tgroup
-    for i in range(len(header)):
-        tgroup += nodes.colspec(colwidth=3 if i == 0 else 2)
-    thead = nodes.thead()
-    tgroup += thead
-    row = nodes.row()
-    for h in header:
-        row += nodes.entry("", nodes.paragraph(text=h))
-    thead += row
-    tbody = nodes.tbody()
-    tgroup += tbody
-    for cells in rows:
-        row = nodes.row()
-        for j, text in enumerate(cells):
-            inner = nodes.literal(text, text) if (j == 0 and first_literal) else nodes.Text(text)
-            row += nodes.entry("", nodes.paragraph("", "", inner))
-        tbody += row
-    return table
+    cells = [
+        [
+            nodes.literal(t, t) if (j == 0 and first_literal) else nodes.Text(t)
+            for j, t in enumerate(r)
+        ]
+        for r in rows
+    ]
+    widths = [3 if i == 0 else 2 for i in range(len(header))]
+    return table(header, cells, widths, "bench")
 
 
 def record_table(recs: list[tuple[str, dict]]) -> nodes.table:

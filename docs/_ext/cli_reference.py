@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from doc_tables import table
 from docutils import nodes
 from sphinx.application import Sphinx
 from sphinx.util.docutils import SphinxDirective
@@ -124,25 +125,7 @@ def _literal(text: str) -> nodes.Node:
 
 
 def _table(rows: list[list[nodes.Node]], header: list[str], widths: list[int]) -> nodes.table:
-    table = nodes.table(classes=["cli-flags"], align="left")
-    tgroup = nodes.tgroup(cols=len(header))
-    table += tgroup
-    for w in widths:
-        tgroup += nodes.colspec(colwidth=w)
-    thead = nodes.thead()
-    tgroup += thead
-    row = nodes.row()
-    for h in header:
-        row += nodes.entry("", nodes.paragraph(text=h))
-    thead += row
-    tbody = nodes.tbody()
-    tgroup += tbody
-    for cells in rows:
-        row = nodes.row()
-        for cell in cells:
-            row += nodes.entry("", nodes.paragraph("", "", cell))
-        tbody += row
-    return table
+    return table(header, rows, widths, "cli-flags")
 
 
 def parser_nodes(parser: argparse.ArgumentParser, command: str | None) -> list[nodes.Node]:
