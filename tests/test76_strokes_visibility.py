@@ -224,3 +224,26 @@ def test07_a_sphere_in_front_of_another_owns_their_shared_outline(tmp_path):
     # and none of the far stroke runs along the near outline
     inside = seg_distance(far[0].points, rings["near"][:-1], rings["near"][1:]) < 0.25
     assert inside.sum() <= 2
+
+
+def test10_a_glass_sphere_has_its_own_outline(tmp_path):
+    """A glass shape that is not a mesh: its outline is drawn (seen directly, not through
+    glass) on the analytic outline, and the ball behind it keeps its strokes, through glass."""
+    c, r = np.array([0.2, 0.1, 5.0]), 0.7
+    glass = (
+        f'<shape type="sphere" id="lens"><point name="center" value="{c[0]}, {c[1]}, {c[2]}"/>'
+        f'<float name="radius" value="{r}"/><bsdf type="dielectric"/></shape>'
+    )
+    scene = load(tmp_path, glass + BALL)
+    st = extract_strokes(scene, scene.sensors()[0])
+    lens = [s for s in st if st.name_of(s.object_id[0]) == "lens"]
+    assert [(s.kind, s.qi, s.through_glass) for s in lens] == [("silhouette", 0, False)]
+    ref = sphere_outline(c, r)
+    ring = np.concatenate([ref, ref[:1]])
+    err = seg_distance(lens[0].points, ring[:-1], ring[1:]).max()
+    assert err < 0.05, err
+    # the lens covers part of the ball: where it does, the ball's outline is seen through it
+    balls = [s for s in st if st.name_of(s.object_id[0]) == "ball"]
+    assert sorted({s.through_glass for s in balls}) == [False, True]
+    # the lens is in front of the ball where they overlap, so its whole outline is drawn
+    assert lens[0].closed

@@ -5,11 +5,12 @@
 every other shape gets its outline here, so no outline is drawn twice: in the id image that is
 traced, every mesh reads as background.
 
-**The id image** sees through glass: each pixel-centre ray (:func:`mi_npr.raycast.pixel_rays`)
-keeps the first surface that is neither glass nor ``null``
+**Two id images.** The first sees through glass: each pixel-centre ray
+(:func:`mi_npr.raycast.pixel_rays`) keeps the first surface that is neither glass nor ``null``
 (:func:`mi_npr.strokes.visibility.first_opaque_hit`), so a sphere behind a glass pane keeps its
-outline, marked ``through_glass``. (The outline of a glass shape that is not a mesh is
-therefore not drawn.)
+outline, marked ``through_glass``; in it only the opaque shapes that are not meshes have ids.
+The second stops at glass (only ``null`` surfaces are passed) and gives ids to the glass shapes
+that are not meshes alone: their own outlines, seen where nothing opaque is in front of them.
 
 **Vertices** come from :func:`mi_npr.contours.vectorize` (crack cycles of the id image, one
 vertex per crack bisected along the crack with ``ITERATIONS`` extra rays: within
@@ -57,11 +58,17 @@ TOLERANCE = 0.02
 
 
 def probe(
-    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, xy: np.ndarray, camera: Projection
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    table: ObjectTable,
+    xy: np.ndarray,
+    camera: Projection,
+    stop_at_glass: bool = False,
 ) -> dict[str, np.ndarray]:
-    """What the pixel ray through each film position ``xy`` (N, 2) sees first, through glass:
-    ``hit``, ``object_id``, ``prim``, ``position`` (N, 3), ``depth`` (along ``camera``'s view axis
-    from its origin: the ``Z`` layer's; +inf on a miss), ``cos`` (``|n . d|``) and ``glass``."""
+    """What the pixel ray through each film position ``xy`` (N, 2) sees first, through glass
+    (unless ``stop_at_glass``): ``hit``, ``object_id``, ``prim``, ``position`` (N, 3), ``depth``
+    (along ``camera``'s view axis from its origin: the ``Z`` layer's; +inf on a miss), ``cos``
+    (``|n . d|``) and ``glass``."""
     xy = np.asarray(xy, np.float64).reshape(-1, 2)
     if len(xy) == 0:
         z = np.zeros(0)
@@ -79,7 +86,7 @@ def probe(
         jit_array(mi.Float, xy[:, 0].astype(np.float32)),
         jit_array(mi.Float, xy[:, 1].astype(np.float32)),
     )
-    si, oid, hit, glass = first_opaque_hit(scene, table, ray)
+    si, oid, hit, glass = first_opaque_hit(scene, table, ray, stop_at_glass)
     cos = dr.abs(dr.dot(si.n, ray.d))
     hit_np = np.asarray(hit.numpy(), bool)
     p = np.stack([np.asarray(c.numpy(), np.float64) for c in (si.p.x, si.p.y, si.p.z)], -1)
@@ -114,14 +121,14 @@ def normals_2d(points: np.ndarray, closed: bool) -> np.ndarray:
     return np.stack([-u[:, 1], u[:, 0]], -1)
 
 
-def analytic_ids(table: ObjectTable) -> np.ndarray:
-    """Object id -> outline id (N + 1,) uint32: the shapes that are not meshes and not glass
-    keep their id, every other object reads as background (0)."""
+def analytic_ids(table: ObjectTable, glass: bool = False) -> np.ndarray:
+    """Object id -> outline id (N + 1,) uint32: the shapes that are not meshes and are glass
+    (``glass``) or not keep their id, every other object reads as background (0)."""
     lut = np.zeros(len(table) + 1, np.uint32)
     for oid, shape in table.shapes.items():
         bsdf = None if shape.class_name() == "Instance" else shape.bsdf()
-        glass = bsdf is not None and mi.has_flag(bsdf.flags(), mi.BSDFFlags.DeltaTransmission)
-        if not shape.is_mesh() and not glass:
+        is_glass = bsdf is not None and mi.has_flag(bsdf.flags(), mi.BSDFFlags.DeltaTransmission)
+        if not shape.is_mesh() and is_glass == glass:
             lut[oid] = oid
     return lut
 
@@ -151,18 +158,26 @@ def outline_strokes(
     camera: Projection,
 ) -> list[Stroke]:
     """The outline strokes of every shape that is not a mesh (module docstring)."""
-    lut = analytic_ids(table)
+    out = _outlines(scene, sensor, table, camera, False)
+    return out + _outlines(scene, sensor, table, camera, True)
+
+
+def _outlines(
+    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, camera: Projection, glass: bool
+) -> list[Stroke]:
+    """The outline strokes of the glass (``glass``) or the opaque shapes that are not meshes."""
+    lut = analytic_ids(table, glass)
     if not lut.any():
         return []
     w, h = (int(v) for v in sensor.film().crop_size())
     gx, gy = film_grid(w, h)
     centres = np.stack([np.asarray(gx.numpy(), np.float64), np.asarray(gy.numpy(), np.float64)], 1)
-    ids = lut[probe(scene, sensor, table, centres, camera)["object_id"]].reshape(h, w)
+    ids = lut[probe(scene, sensor, table, centres, camera, glass)["object_id"]].reshape(h, w)
     if not ids.any():
         return []
 
     def ids_at(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return lut[probe(scene, sensor, table, np.stack([x, y], 1), camera)["object_id"]]
+        return lut[probe(scene, sensor, table, np.stack([x, y], 1), camera, glass)["object_id"]]
 
     paths = vectorize(ids, objects=table.names, ids_at=ids_at, tolerance=0.0, iterations=ITERATIONS)
     paths = [p for p in paths if len(p) >= 2]
@@ -170,8 +185,8 @@ def outline_strokes(
         return []
     pts = np.concatenate([p.points for p in paths])
     nrm = np.concatenate([normals_2d(p.points, p.closed) for p in paths])
-    a = probe(scene, sensor, table, pts + PROBE * nrm, camera)
-    b = probe(scene, sensor, table, pts - PROBE * nrm, camera)
+    a = probe(scene, sensor, table, pts + PROBE * nrm, camera, glass)
+    b = probe(scene, sensor, table, pts - PROBE * nrm, camera, glass)
     out: list[Stroke] = []
     start = 0
     for path in paths:

@@ -145,28 +145,29 @@ def quantitative_invisibility(
 
 
 def first_opaque_hit(
-    scene: mi.Scene, table: ObjectTable, ray: mi.Ray3f
+    scene: mi.Scene, table: ObjectTable, ray: mi.Ray3f, stop_at_glass: bool = False
 ) -> tuple[mi.SurfaceInteraction3f, mi.UInt32, mi.Bool, mi.Bool]:
     """The first surface along each ray that is neither glass nor ``null`` (module docstring):
     its surface interaction (``t`` from the ray's origin), object id (0: none), whether it was
-    hit and whether glass was passed on the way."""
+    hit and whether glass was passed on the way. ``stop_at_glass``: glass is a surface like any
+    other (only ``null`` surfaces are passed), which is how a glass shape's own outline is seen."""
     d, o = ray.d, ray.o
     si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=False)
     glass = dr.zeros(mi.Bool, dr.width(si.t))
     hit = si.is_valid()
     is_glass, invisible = _surface(si, hit)
-    passing = is_glass | invisible
+    passing = invisible if stop_at_glass else is_glass | invisible
     for _ in range(MAX_PASSES):
         if not dr.any(passing):
             break
-        glass |= is_glass
+        glass |= is_glass & passing
         again = scene.ray_intersect(
             si.spawn_ray(d), ray_flags=mi.RayFlags.All, coherent=False, active=passing
         )
         si = dr.select(passing, again, si)
         hit = dr.select(passing, again.is_valid(), hit)
         is_glass, invisible = _surface(si, hit & passing)
-        passing = passing & hit & (is_glass | invisible)
+        passing = passing & hit & (invisible if stop_at_glass else is_glass | invisible)
         dr.eval(si, hit, glass, passing)
     si.t = dr.select(hit, dr.dot(si.p - o, d), dr.inf)
     oid = dr.select(hit & ~passing, table.lookup(si), 0)
