@@ -241,66 +241,155 @@ def vectorize(
 
 
 # --------------------------------------------------------------------------------- strokes
-_N4 = ((1, 0), (0, 1), (-1, 0), (0, -1))
-_ND = ((1, 1), (-1, 1), (-1, -1), (1, -1))
 
 
-def _neighbours(mask: np.ndarray, x: int, y: int) -> list[tuple[int, int]]:
-    h, w = mask.shape
-    out = []
-    for dx, dy in _N4:
-        u, v = x + dx, y + dy
-        if 0 <= u < w and 0 <= v < h and mask[v, u]:
-            out.append((u, v))
-    for dx, dy in _ND:
-        u, v = x + dx, y + dy
-        if not (0 <= u < w and 0 <= v < h and mask[v, u]):
-            continue
-        # a diagonal step that a 4-neighbour already bridges is not an edge of its own
-        if (0 <= x + dx < w and mask[y, x + dx]) or (0 <= y + dy < h and mask[y + dy, x]):
-            continue
-        out.append((u, v))
-    return out
+def _pixel_graph(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The stroke graph of mask ``m``: pixel coordinates ``(x, y)`` in row-major order and the
+    undirected edges ``(i, j)`` between 8-neighbours, a diagonal left out where a 4-neighbour of
+    both bridges it."""
+    h, w = m.shape
+    ys, xs = np.nonzero(m)
+    idx = np.full(m.shape, -1, np.int64)
+    idx[ys, xs] = np.arange(len(xs))
+    pairs = []
+    right = m[:, :-1] & m[:, 1:]
+    pairs.append((idx[:, :-1][right], idx[:, 1:][right]))
+    down = m[:-1, :] & m[1:, :]
+    pairs.append((idx[:-1, :][down], idx[1:, :][down]))
+    if h > 1 and w > 1:
+        a, b, c, d = m[:-1, :-1], m[:-1, 1:], m[1:, :-1], m[1:, 1:]
+        dr_ = a & d & ~b & ~c  # (x, y) -> (x + 1, y + 1)
+        pairs.append((idx[:-1, :-1][dr_], idx[1:, 1:][dr_]))
+        dl = b & c & ~a & ~d  # (x + 1, y) -> (x, y + 1)
+        pairs.append((idx[:-1, 1:][dl], idx[1:, :-1][dl]))
+    i = np.concatenate([p[0] for p in pairs])
+    j = np.concatenate([p[1] for p in pairs])
+    return np.stack([xs, ys], 1), i, j
+
+
+def _jump(succ: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pointer jumping along ``succ`` (a terminal points to itself): per element its terminal,
+    its number of steps to it and the smallest index met (over the whole cycle for elements on
+    a cycle, which never reach a fixed point)."""
+    n = len(succ)
+    ptr = succ.copy()
+    dist = (ptr != np.arange(n)).astype(np.int64)
+    low = np.minimum(np.arange(n), ptr)
+    for _ in range(max(1, int(n).bit_length())):
+        if n == 0:
+            break
+        low = np.minimum(low, low[ptr])
+        dist = dist + dist[ptr]
+        ptr = ptr[ptr]
+    return ptr, dist, low
+
+
+def _chains(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The chains of mask ``m`` (module docstring): the pixels ``(x, y)`` of every chain, one
+    after the other, and the offsets of each chain in them (``xy[off[c]:off[c + 1]]``), chains
+    in the row-major order of their first pixel."""
+    xy, i, j = _pixel_graph(m)
+    n, e = len(xy), len(i)
+    deg = np.bincount(np.concatenate([i, j]), minlength=n)
+    # half-edges: h < e runs i -> j, h + e is its reverse
+    tail, head = np.concatenate([i, j]), np.concatenate([j, i])
+    rev = np.concatenate([np.arange(e, 2 * e), np.arange(e)])
+    hid = np.arange(2 * e)
+    two = deg == 2
+    # a walk arriving at a pixel of degree 2 leaves by its other half-edge; elsewhere it ends
+    by_tail = np.argsort(tail, kind="stable")
+    first = np.searchsorted(tail[by_tail], np.arange(n))
+    mid = two[head]
+    out_a = by_tail[np.minimum(first[head[mid]], 2 * e - 1)]
+    out_b = by_tail[np.minimum(first[head[mid]] + 1, 2 * e - 1)]
+    succ = hid.copy()
+    succ[mid] = np.where(out_a == rev[mid], out_b, out_a)
+    ptr, _, low = _jump(succ)
+    # a cycle of degree-2 pixels is walked both ways: keep the orientation holding the smaller
+    # half-edge and cut it just before that one
+    ring = succ[ptr] != ptr
+    keep_ring = ring & (low < low[rev])
+    cut = keep_ring & (succ == low)
+    succ[cut] = hid[cut]
+    ptr, dist, _ = _jump(succ)
+    # a path between ends or junctions is walked from both: keep the orientation whose first
+    # half-edge is smaller than the other's
+    start = (~two[tail] & (hid < rev[ptr])) | (keep_ring & (hid == low))
+    s = np.flatnonzero(start)
+    chain = np.full(2 * e, -1)
+    chain[ptr[s]] = np.arange(len(s))
+    member = (~ring | keep_ring) & (chain[ptr] >= 0)
+    hs = np.flatnonzero(member)
+    c = chain[ptr[hs]]
+    # every chain: its first pixel, then the head of each half-edge in walking order; a lone
+    # pixel is a chain of one
+    singles = np.flatnonzero(deg == 0)
+    first_px = np.concatenate([tail[s], singles])
+    length = np.concatenate([dist[s] + 2, np.ones(len(singles), np.int64)])
+    order = np.argsort(first_px, kind="stable")
+    rank = np.empty(len(order), np.int64)
+    rank[order] = np.arange(len(order))
+    off = np.concatenate([[0], np.cumsum(length[order])])
+    seq = np.empty(int(off[-1]), np.int64)
+    seq[off[rank]] = first_px
+    seq[off[rank[c]] + 1 + dist[s[c]] - dist[hs]] = head[hs]
+    return xy[seq].astype(np.float64), off
+
+
+def _dp_chains(p: np.ndarray, off: np.ndarray, tolerance: float) -> np.ndarray:
+    """Douglas-Peucker on every chain ``p[off[c]:off[c + 1]]`` at once: the mask of kept
+    vertices. A chain's ends are kept; a segment is split at its farthest vertex while that lies
+    more than ``tolerance`` from the segment (the segment, not its line: a chain that turns back
+    keeps its turn). A closed chain (last vertex = first) has a segment of length 0 to begin
+    with, which its farthest vertex splits."""
+    n = len(p)
+    keep = np.zeros(n, bool)
+    keep[off[:-1][np.diff(off) > 0]] = True
+    keep[off[1:][np.diff(off) > 0] - 1] = True
+    live = np.flatnonzero(~keep)
+    ids = np.arange(n)
+    while len(live):
+        prev = np.maximum.accumulate(np.where(keep, ids, 0))[live]
+        nxt = np.minimum.accumulate(np.where(keep, ids, n)[::-1])[::-1][live]
+        a, b, q = p[prev], p[nxt], p[live]
+        ab = b - a
+        t = np.clip(np.sum((q - a) * ab, 1) / np.maximum(np.sum(ab * ab, 1), 1e-300), 0.0, 1.0)
+        d = np.hypot(*(q - a - t[:, None] * ab).T)
+        # live vertices of one segment are contiguous: one group per segment
+        bounds = np.flatnonzero(np.diff(prev, prepend=-1))
+        far = np.maximum.reduceat(d, bounds)
+        group = np.repeat(np.arange(len(bounds)), np.diff(np.append(bounds, len(live))))
+        split = far > tolerance
+        at_far = np.flatnonzero((d == far[group]) & split[group])
+        chosen = at_far[np.unique(group[at_far], return_index=True)[1]]
+        keep[live[chosen]] = True
+        still = split[group]
+        still[chosen] = False
+        live = live[still]
+    return keep
 
 
 def trace_strokes(mask: Any, tolerance: float = 0.25) -> list[np.ndarray]:
-    """Polylines (each (N, 2) float64 through pixel centres) covering a thin (H, W) line mask."""
+    """Polylines (each (N, 2) float64 through pixel centres) covering a thin (H, W) line mask
+    (module docstring): one per chain between ends and junctions, a closed one (a ring) with its
+    first vertex repeated last, a lone pixel as one vertex; simplified by Douglas-Peucker within
+    ``tolerance`` px.
+
+    >>> m = np.zeros((5, 9), bool)
+    >>> m[2, 1:8] = True
+    >>> [p.tolist() for p in trace_strokes(m)]
+    [[[1.5, 2.5], [7.5, 2.5]]]
+    """
     m = np.asarray(mask, dtype=bool)
     if m.ndim != 2:
         raise ParameterError(f"stroke mask: expected an (H, W) array, got shape {m.shape}")
-    ys, xs = np.nonzero(m)
-    nbrs = {(int(x), int(y)): _neighbours(m, int(x), int(y)) for x, y in zip(xs, ys, strict=True)}
-    used: set[tuple[tuple[int, int], tuple[int, int]]] = set()
-
-    def walk(a: tuple[int, int], b: tuple[int, int]) -> list[tuple[int, int]]:
-        chain = [a]
-        prev, cur = a, b
-        used.add((a, b))
-        used.add((b, a))
-        while True:
-            chain.append(cur)
-            if len(nbrs[cur]) != 2:
-                return chain
-            nxt = nbrs[cur][0] if nbrs[cur][1] == prev else nbrs[cur][1]
-            if (cur, nxt) in used:
-                return chain
-            used.add((cur, nxt))
-            used.add((nxt, cur))
-            prev, cur = cur, nxt
-
-    lines: list[list[tuple[int, int]]] = []
-    for p in sorted(nbrs, key=lambda q: (q[1], q[0])):  # ends and junctions first
-        if len(nbrs[p]) != 2:
-            if not nbrs[p]:
-                lines.append([p])
-            for q in nbrs[p]:
-                if (p, q) not in used:
-                    lines.append(walk(p, q))
-    for p in sorted(nbrs, key=lambda q: (q[1], q[0])):  # what is left: closed loops
-        for q in nbrs[p]:
-            if (p, q) not in used:
-                lines.append(walk(p, q))
-    return [douglas_peucker(np.asarray(c, np.float64) + 0.5, tolerance) for c in lines]
+    if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance >= 0):
+        raise ParameterError(f"tolerance = {tolerance!r}: must be a number >= 0 (pixels)")
+    p, off = _chains(m)
+    p += 0.5
+    keep = _dp_chains(p, off, float(tolerance))
+    counts = np.add.reduceat(keep, off[:-1]) if len(p) else np.zeros(0, np.int64)
+    return np.split(p[keep], np.cumsum(counts)[:-1]) if len(counts) else []
 
 
 def stroke_layers(
