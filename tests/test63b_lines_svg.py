@@ -62,55 +62,25 @@ def brute_neighbours(m: np.ndarray, x: int, y: int) -> list[tuple[int, int]]:
     return out
 
 
-def brute_chains(m: np.ndarray) -> list[frozenset]:
-    """Every chain of ``m`` as its set of undirected pixel edges (a lone pixel: the set holding
-    only ``(p, p)``): walk from each end or junction along pixels of two neighbours, then the
-    rings that are left."""
-    ys, xs = np.nonzero(m)
-    nb = {
-        (int(x), int(y)): brute_neighbours(m, int(x), int(y)) for x, y in zip(xs, ys, strict=True)
-    }
-    used: set = set()
-    chains = []
-
-    def walk(a, b):
-        edges = set()
-        prev, cur = a, b
-        while True:
-            e = frozenset((prev, cur))
-            if e in used:
-                return edges
-            used.add(e)
-            edges.add(e)
-            if len(nb[cur]) != 2:
-                return edges
-            prev, cur = cur, next(q for q in nb[cur] if q != prev)
-
-    for p in nb:
-        if not nb[p]:
-            chains.append(frozenset([frozenset((p, p))]))
-        elif len(nb[p]) != 2:
-            chains += [frozenset(walk(p, q)) for q in nb[p] if frozenset((p, q)) not in used]
-    for p in nb:
-        chains += [frozenset(walk(p, q)) for q in nb[p] if frozenset((p, q)) not in used]
-    return [c for c in chains if c]
-
-
-def expanded_edges(path: np.ndarray) -> frozenset:
-    """The pixel edges of a traced path: each segment is a straight run of equal 8-neighbour
-    steps between pixel centres (what Douglas-Peucker at tolerance 0 leaves out)."""
+def pixel_run(path: np.ndarray) -> list[tuple[int, int]]:
+    """The pixels of a traced path, in order: each segment is a straight run of equal
+    8-neighbour steps between pixel centres (what Douglas-Peucker at tolerance 0 leaves out)."""
     q = np.rint(np.asarray(path) - 0.5).astype(int)
-    if len(q) == 1:
-        p = tuple(q[0])
-        return frozenset([frozenset((p, p))])
-    out = set()
+    out = [tuple(int(v) for v in q[0])]
     for a, b in itertools.pairwise(q):
         n = int(np.abs(b - a).max())
         step = (b - a) // n
         assert np.array_equal(a + n * step, b), "a segment that is no straight pixel run"
-        for k in range(n):
-            out.add(frozenset((tuple(a + k * step), tuple(a + (k + 1) * step))))
-    return frozenset(out)
+        out += [tuple(int(v) for v in a + k * step) for k in range(1, n + 1)]
+    return out
+
+
+def expanded_edges(path: np.ndarray) -> frozenset:
+    """The pixel edges of a traced path (a lone pixel: the set holding only ``(p, p)``)."""
+    q = pixel_run(path)
+    if len(q) == 1:
+        return frozenset([frozenset((q[0], q[0]))])
+    return frozenset(frozenset(e) for e in itertools.pairwise(q))
 
 
 def drawn(points: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -126,14 +96,45 @@ def drawn(points: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 # ------------------------------------------------------------------------------- the tracer
 
 
+def check_chains(m: np.ndarray, lines: list[np.ndarray]) -> None:
+    """The definition of the chains (module docstring of :mod:`mi_npr.contours.vector`),
+    checked on the paths traced from ``m`` at tolerance 0: they use the mask's neighbour edges,
+    each once, and visit every pixel; the edges left out join pixels that keep two edges or more;
+    no kept edge joins two pixels of three or more; a path runs on through pixels of two edges
+    and straight through crossings, and ends elsewhere (or closes on itself)."""
+    ys, xs = np.nonzero(m)
+    pixels = {(int(x), int(y)) for x, y in zip(xs, ys, strict=True)}
+    graph = {frozenset((p, q)) for p in pixels for q in brute_neighbours(m, *p)}
+    chains = [expanded_edges(p) for p in lines]
+    kept = [e for c in chains for e in c if len(e) == 2]
+    assert len(kept) == len(set(kept)) and set(kept) <= graph
+    assert {p for c in chains for e in c for p in e} == pixels
+    deg = Counter(p for e in kept for p in e)
+    assert all(deg[p] >= 2 for e in graph - set(kept) for p in e)
+    assert not [e for e in kept if min(deg[p] for p in e) >= 3]
+
+    def crossing(p):
+        arms = [q for e in kept if p in e for q in e if q != p]
+        return len(arms) == 4 and all((2 * p[0] - q[0], 2 * p[1] - q[1]) in arms for q in arms)
+
+    for path in lines:
+        q = pixel_run(path)
+        closed = len(q) > 2 and q[0] == q[-1]
+        if not closed:  # a path ends where no walk goes on
+            assert all(deg[p] != 2 and not crossing(p) for p in {q[0], q[-1]} if deg[p])
+        for a, b, c in zip(q, q[1:], q[2:], strict=False):  # and goes on where one does
+            assert deg[b] == 2 or (
+                crossing(b) and np.array_equal(np.subtract(b, a), np.subtract(c, b))
+            )
+
+
 @pytest.mark.parametrize("seed", range(6))
-def test01_chains_are_the_brute_force_walkers(seed):
+def test01_chains_against_their_definition(seed):
     rng = np.random.default_rng(seed)
     for _ in range(40):
         h, w = (int(v) for v in rng.integers(1, 16, 2))
         m = rng.random((h, w)) < rng.uniform(0.05, 0.7)
-        lines = trace_strokes(m, 0.0)
-        assert Counter(map(expanded_edges, lines)) == Counter(brute_chains(m))
+        check_chains(m, trace_strokes(m, 0.0))
         # and simplified: every mask pixel within 0.25 px, every vertex a mask pixel's centre
         simple = trace_strokes(m)
         ys, xs = np.nonzero(m)
@@ -142,6 +143,20 @@ def test01_chains_are_the_brute_force_walkers(seed):
             assert np.min([seg_dist(c, p) for p in simple], axis=0).max() <= 0.25 + 1e-9
             v = np.concatenate(simple) - 0.5
             assert np.allclose(v, np.rint(v)) and m[v[:, 1].astype(int), v[:, 0].astype(int)].all()
+
+
+def test01b_thin_masks_are_walked_between_ends_and_junctions():
+    """Where no two junction pixels touch, the chains are those of a plain walk: a cross is two
+    lines through its centre, a T three paths."""
+    cross = np.zeros((9, 9), bool)
+    cross[4, 1:8] = cross[1:8, 4] = True
+    got = sorted(p.tolist() for p in trace_strokes(cross))
+    assert got == [[[1.5, 4.5], [7.5, 4.5]], [[4.5, 1.5], [4.5, 7.5]]]
+    band = np.zeros((8, 34), bool)
+    band[3:5, 2:32] = True  # two pixels wide: its rungs go, its two rows make one ring
+    (ring,) = trace_strokes(band)
+    assert {tuple(p) for p in ring} == {(2.5, 3.5), (31.5, 3.5), (31.5, 4.5), (2.5, 4.5)}
+    assert np.array_equal(ring[0], ring[-1])
 
 
 def test02_a_drawn_polyline_comes_back_within_a_pixel():

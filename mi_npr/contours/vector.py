@@ -20,10 +20,26 @@ becomes open paths ending one half-pixel inside the frame at most.
 outline points, and every dropped one lies within ``tolerance`` of the simplified path. A closed
 path is split at its two mutually farthest vertices first.
 
-**Strokes** (:func:`trace_strokes`) turn thin line masks (the ``lines`` layer above 0.5, the
-ray-tree edge classes) into polylines through the pixel centres, walking 8-connected chains from
-their ends and junctions (4-neighbours first, so an L-shaped corner is not cut twice), then
-simplified the same way.
+**Strokes** (:func:`trace_strokes`) turn line masks without an object-space source (the
+ray-tree edge classes, the lines a scene's strokes do not explain) into polylines through the
+pixel centres, all in array operations:
+
+1. *The pixel graph*: an edge between 8-neighbours, except a diagonal that a pixel 4-adjacent to
+   both bridges (an L-shaped corner is one corner, not a triangle).
+2. *Pruning*: a line two pixels wide makes every pixel a junction (its two rows and the rungs
+   between them). In rounds, an edge between two pixels of degree 3 or more is removed when it
+   comes first at both of its pixels in the order (ends where an edge continues it straight,
+   edge index): rungs go before the rows they join. Every pixel keeps two edges or more, so
+   every pixel stays on a path, and no edge joining two such pixels is left.
+3. *Chains*: a path goes on through a pixel of degree 2 and straight through a *crossing* (4
+   edges in two straight pairs: a thin line crossing another stays one path); it ends at an end
+   (degree 1) or a junction (3, or 4 that is no crossing: a T is three paths ending at its
+   junction). A cycle that meets no end or junction is a closed path: its first vertex repeated
+   last. A lone pixel is a path of one vertex. Found by pointer jumping on the half-edges
+   (each half-edge's successor on its walk), ``log2`` of the longest path steps.
+4. *Douglas-Peucker* on every chain at once: a segment is split at its farthest vertex while
+   that lies more than ``tolerance`` from the segment; so every pixel centre of the mask lies
+   within ``tolerance`` of a path, and every vertex is a pixel centre.
 """
 
 from __future__ import annotations
@@ -244,10 +260,10 @@ def vectorize(
 # --------------------------------------------------------------------------------- strokes
 
 
-def _pixel_graph(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The stroke graph of mask ``m``: pixel coordinates ``(x, y)`` in row-major order and the
-    undirected edges ``(i, j)`` between 8-neighbours, a diagonal left out where a 4-neighbour of
-    both bridges it."""
+def _pixel_graph(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The stroke graph of mask ``m`` (module docstring): pixel coordinates ``(x, y)`` in
+    row-major order, the undirected edges ``(i, j)`` between them, pruned, and the (H, W) map of
+    pixel indices (-1 off the mask)."""
     h, w = m.shape
     ys, xs = np.nonzero(m)
     idx = np.full(m.shape, -1, np.int64)
@@ -265,7 +281,58 @@ def _pixel_graph(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         pairs.append((idx[:-1, 1:][dl], idx[1:, :-1][dl]))
     i = np.concatenate([p[0] for p in pairs])
     j = np.concatenate([p[1] for p in pairs])
-    return np.stack([xs, ys], 1), i, j
+    xy = np.stack([xs, ys], 1)
+    keep = _pruned(xy, idx, i, j)
+    return xy, i[keep], j[keep], idx
+
+
+def _straight(
+    xy: np.ndarray,
+    idx: np.ndarray,
+    edges: tuple[np.ndarray, np.ndarray, np.ndarray],
+    u: np.ndarray,
+    v: np.ndarray,
+) -> np.ndarray:
+    """Per step ``u -> v`` (pixel indices): the index of the edge among ``edges`` (``i``, ``j``,
+    live mask) that continues it straight beyond ``v`` (the same step again), or -1."""
+    i, j, live = edges
+    n = len(xy)
+    key = np.concatenate([i * n + j, j * n + i])
+    eid = np.concatenate([np.arange(len(i))] * 2)
+    order = np.argsort(key)
+    key, eid = key[order], eid[order]
+    h, w = idx.shape
+    nxt = 2 * xy[v] - xy[u]
+    inside = (nxt[:, 0] >= 0) & (nxt[:, 0] < w) & (nxt[:, 1] >= 0) & (nxt[:, 1] < h)
+    k = np.full(len(u), -1, np.int64)
+    k[inside] = idx[nxt[inside, 1], nxt[inside, 0]]
+    if not len(key):
+        return k * 0 - 1
+    want = v * n + k
+    at = np.minimum(np.searchsorted(key, want), len(key) - 1)
+    hit = (k >= 0) & (key[at] == want) & live[eid[at]]
+    return np.where(hit, eid[at], -1)
+
+
+def _pruned(xy: np.ndarray, idx: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """The edges kept (mask) after pruning (module docstring): in rounds, an edge between two
+    pixels of degree 3 or more goes when it is the first such edge at both of its pixels, in
+    the order (number of its ends where a live edge continues it straight, edge index)."""
+    n, e = len(xy), len(i)
+    live = np.ones(e, bool)
+    while True:
+        deg = np.bincount(np.concatenate([i[live], j[live]]), minlength=n)
+        cand = live & (deg[i] >= 3) & (deg[j] >= 3)
+        if not cand.any():
+            return live
+        c = np.flatnonzero(cand)
+        ahead = _straight(xy, idx, (i, j, live), i[c], j[c]) >= 0
+        behind = _straight(xy, idx, (i, j, live), j[c], i[c]) >= 0
+        rank = (ahead.astype(np.int64) + behind) * e + c
+        best = np.full(n, np.iinfo(np.int64).max)
+        np.minimum.at(best, i[c], rank)
+        np.minimum.at(best, j[c], rank)
+        live[c[(best[i[c]] == rank) & (best[j[c]] == rank)]] = False
 
 
 def _jump(succ: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -289,7 +356,7 @@ def _chains(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The chains of mask ``m`` (module docstring): the pixels ``(x, y)`` of every chain, one
     after the other, and the offsets of each chain in them (``xy[off[c]:off[c + 1]]``), chains
     in the row-major order of their first pixel."""
-    xy, i, j = _pixel_graph(m)
+    xy, i, j, idx = _pixel_graph(m)
     n, e = len(xy), len(i)
     deg = np.bincount(np.concatenate([i, j]), minlength=n)
     # half-edges: h < e runs i -> j, h + e is its reverse
@@ -297,7 +364,8 @@ def _chains(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rev = np.concatenate([np.arange(e, 2 * e), np.arange(e)])
     hid = np.arange(2 * e)
     two = deg == 2
-    # a walk arriving at a pixel of degree 2 leaves by its other half-edge; elsewhere it ends
+    # a walk arriving at a pixel of degree 2 leaves by its other half-edge, one arriving at a
+    # crossing goes straight on; elsewhere it ends
     by_tail = np.argsort(tail, kind="stable")
     first = np.searchsorted(tail[by_tail], np.arange(n))
     mid = two[head]
@@ -305,6 +373,13 @@ def _chains(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     out_b = by_tail[np.minimum(first[head[mid]] + 1, 2 * e - 1)]
     succ = hid.copy()
     succ[mid] = np.where(out_a == rev[mid], out_b, out_a)
+    on = _straight(xy, idx, (i, j, np.ones(e, bool)), tail, head)
+    on_half = np.where(on < 0, -1, np.where(i[np.maximum(on, 0)] == head, on, on + e))
+    straight = np.bincount(head[on >= 0], minlength=n)
+    crossing = (deg == 4) & (straight == 4)
+    cross = crossing[head]
+    succ[cross] = on_half[cross]
+    two = two | crossing
     ptr, _, low = _jump(succ)
     # a cycle of degree-2 pixels is walked both ways: keep the orientation holding the smaller
     # half-edge and cut it just before that one
@@ -371,10 +446,10 @@ def _dp_chains(p: np.ndarray, off: np.ndarray, tolerance: float) -> np.ndarray:
 
 
 def trace_strokes(mask: Any, tolerance: float = 0.25) -> list[np.ndarray]:
-    """Polylines (each (N, 2) float64 through pixel centres) covering a thin (H, W) line mask
-    (module docstring): one per chain between ends and junctions, a closed one (a ring) with its
-    first vertex repeated last, a lone pixel as one vertex; simplified by Douglas-Peucker within
-    ``tolerance`` px.
+    """Polylines (each (N, 2) float64 through pixel centres) covering an (H, W) line mask (module
+    docstring): one per chain between ends and junctions, a closed one with its first vertex
+    repeated last, a lone pixel as one vertex; every pixel centre of the mask within
+    ``tolerance`` px of one, in the row-major order of their first pixel.
 
     >>> m = np.zeros((5, 9), bool)
     >>> m[2, 1:8] = True
