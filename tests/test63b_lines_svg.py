@@ -326,7 +326,7 @@ def test07_every_line_pixel_is_a_stroke_or_traced(tmp_path):
     mask = gb.numpy(L.LINES) > 0.5
     ys, xs = np.nonzero(mask)
     c = np.stack([xs + 0.5, ys + 0.5], 1)
-    near = np.min([seg_dist(c, p) for p in strokes], axis=0) <= 0.5 + 2.0 + 0.75
+    near = np.min([seg_dist(c, p) for p in strokes], axis=0) <= 0.5 + 2.0 + 0.85
     if traced:
         near |= np.min([seg_dist(c, p) for p in traced], axis=0) <= 0.25 + 1e-9
     assert near.all()
