@@ -15,8 +15,20 @@ Layout of the document (``width`` x ``height`` user units = pixels, y down like 
         </g>
         ...
       </g>
-      <g id="lines" inkscape:groupmode="layer" inkscape:label="lines" stroke="#000000" ...>
-        <path d="M ... L ..."/> ...                 optional: one layer per stroke drawing
+      <g id="edges_real" inkscape:groupmode="layer" inkscape:label="edges_real"
+         stroke="#..." ...>                   optional: paths traced from a mask
+        <path d="M ... L ..."/> ...
+      </g>
+      <g id="lines" inkscape:groupmode="layer" inkscape:label="lines" fill="none" ...>
+        <g id="silhouette" inkscape:groupmode="layer" data-kind="silhouette">   a StrokeLayer
+          <g id="silhouette.box" inkscape:label="box" data-object-id="1" data-name="box">
+            <path class="visible" data-stroke="0" data-qi="0" stroke="#000000"
+                  stroke-width="1" d="M 10.521 3.5 L ..."/>
+          </g>
+        </g>
+        <g id="traced" inkscape:groupmode="layer" data-source="image" stroke="#000000" ...>
+          <path d="..."/>                     lines of the image that no stroke explains
+        </g>
       </g>
 
 Every drawing is an Inkscape layer (``inkscape:groupmode="layer"``; other programs see plain
@@ -32,6 +44,12 @@ Holes carry ``fill-rule="evenodd"`` (inherited from their group too), so giving 
 as ``xlink:href``, which Inkscape 1.2 reads where it ignores SVG 2's ``href`` (browsers read
 both; the data is not written twice), linked (``beauty_href``, a file
 beside the SVG, named by ``xlink:href`` and ``href`` both) or left out. Writes are atomic.
+
+Layers of lines come after the contours, one per entry of ``strokes``: paths traced from a mask
+(:func:`mi_npr.contours.trace_strokes`, the ray-tree edge classes) in one colour, or a
+:class:`StrokeLayer` of object-space strokes (:mod:`mi_npr.strokes`): one sub-layer per edge
+kind, one group per object, one element per stroke in its style, coordinates with 3 decimals,
+as :mod:`mi_npr.io.strokes` documents for ``<stem>_strokes.svg``, which is written here too.
 """
 
 from __future__ import annotations
