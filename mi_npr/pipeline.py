@@ -13,7 +13,10 @@ the same raw beauty, so the drawings never stack on each other:
   beauty, and the layers of every drawing are added (``lines``, ``contour``, ``raytree.*``,
   ``edges.*``, Cryptomatte): one G-buffer, one EXR;
 - :attr:`LayeredRender.pictures` holds each drawing over the raw beauty (``contours``,
-  ``raytree``), the images of ``<stem>_contours.png`` and ``<stem>_raytree.png``.
+  ``raytree``), the images of ``<stem>_contours.png`` and ``<stem>_raytree.png``;
+- :attr:`LayeredRender.strokes` holds the vector form of the line drawings for the SVG files:
+  the ray-tree edge classes traced from their masks, and the ``lines`` drawing as object-space
+  strokes (:func:`lines_as_strokes`).
 
 The shorthands :func:`render_contours`, :func:`render_vector_contours` and
 :func:`render_raytree` are one drawing each (``mi-npr contours``, ``mi-npr raytree`` from
@@ -30,14 +33,20 @@ from typing import Any
 import mitsuba as mi
 import numpy as np
 
+from . import layers as L
 from .contours.contour import Contour
-from .contours.vector import VectorPath, stroke_layers, vectorize
+from .contours.idmode import SILHOUETTE, selected, split_globs
+from .contours.vector import VectorPath, near_polylines, stroke_layers, trace_strokes, vectorize
 from .drawings import DRAWINGS, drawing, of_plugin, split_params
 from .errors import ParameterError
 from .gbuffer import GBuffer
+from .io.svg import StrokeLayer
 from .render import render_gbuffer
 from .scene import merge_defines
 from .session import SceneSession
+from .strokes import Strokes, extract_strokes
+from .strokes.drawing import StrokeDrawing, depth_range_of
+from .strokes.style import make_style
 
 
 def settings(
@@ -84,7 +93,9 @@ class LayeredRender:
     drawings: tuple[str, ...] = ()
     #: The contours as vector paths on the true outline (:func:`mi_npr.contours.vectorize`).
     paths: list[VectorPath] = field(default_factory=list)
-    #: The line drawings as SVG stroke layers (:func:`mi_npr.contours.stroke_layers`).
+    #: The line drawings as SVG stroke layers: the ray-tree edge classes traced from their
+    #: masks (:func:`mi_npr.contours.stroke_layers`), the ``lines`` drawing as strokes
+    #: (:func:`lines_as_strokes`).
     strokes: dict = field(default_factory=dict)
     #: The ``strokes`` drawing: its vector strokes, style and raster
     #: (:class:`mi_npr.strokes.drawing.StrokeDrawing`), written as ``<stem>_strokes.*``.
@@ -177,7 +188,94 @@ def render_layers(
         out.gbuffer = gb.with_layers(new).with_metadata(**meta)
     if vector:
         out.strokes = stroke_layers(out.gbuffer)
+        if "lines" in on:
+            with session.step("lines as strokes"):
+                out.strokes[LINES_SVG] = lines_as_strokes(
+                    session, out.gbuffer, on["lines"], out.vector_strokes
+                )
     return out
+
+
+#: The layer of ``<stem>_lines.svg`` that holds the ``lines`` drawing.
+LINES_SVG = L.LINES.split(".")[0]
+
+
+def line_kinds(params: Mapping[str, Any]) -> tuple[str, ...]:
+    """The stroke kinds (:data:`mi_npr.strokes.KINDS`) the ``lines`` drawing draws with
+    ``params``: ``silhouette`` and ``border`` (its depth contours, and its ID edges against
+    another object), ``crease`` when ``crease_angle > 0``, ``material`` and ``intersection``
+    (object boundaries) when ``id_edges`` is on and ``id_mode`` is not ``silhouette``.
+
+    >>> line_kinds({"crease_angle": 0, "id_edges": True, "id_mode": "shape"})
+    ('silhouette', 'border', 'material', 'intersection')
+    """
+    kinds = ["silhouette", "border"]
+    if params.get("crease_angle", 0) > 0:
+        kinds.append("crease")
+    if params.get("id_edges") and params.get("id_mode", "shape") != SILHOUETTE:
+        kinds += ["material", "intersection"]
+    return tuple(kinds)
+
+
+def lines_as_strokes(
+    session: SceneSession,
+    gb: GBuffer,
+    params: Mapping[str, Any],
+    drawn: StrokeDrawing | None = None,
+) -> StrokeLayer:
+    """The ``lines`` drawing of ``gb`` (its ``lines.V`` layer, drawn with ``params``, all of the
+    drawing's, checked) as object-space strokes: the layer of ``<stem>_lines.svg``.
+
+    **Which strokes** (:func:`mi_npr.strokes.extract_strokes`, with the drawing's
+    ``crease_angle``): the visible ones (``qi == 0``, those seen through glass too) of
+    :func:`line_kinds`, of the objects that ``only`` and ``ignore`` select (a stroke's object:
+    that of its first vertex). The strokes of ``drawn`` (the ``strokes`` drawing of the same
+    render) are reused when they were extracted at the same crease angle, or creases are off.
+    **How**: ``line_width`` px wide, in ``line_color``, opaque: the ID edges and creases of the
+    lines are drawn at full strength, and an outline always has a depth step or an ID change, so
+    an opaque stroke is what the PNG shows, except where eq. 5.1 fades a depth step too small for
+    ``t / c`` (an object occluding itself) and no ID edge inks it.
+    **Nothing asked for is dropped**: the pixels of ``lines.V > 0.5`` farther than
+    ``line_width / 2 + 2`` px from every stroke are traced (:func:`mi_npr.contours.trace_strokes`)
+    into the layer's ``traced`` sub-layer: leaf edges, depth lines where a surface recedes
+    steeply, ID edges of an ``id_mode`` finer than a shape, and, for a camera the strokes refuse
+    (not a perspective one), every line pixel."""
+    crease = float(params["crease_angle"])
+    strokes = None
+    if drawn is not None and crease in (0.0, drawn.strokes.params.get("crease_angle")):
+        strokes = drawn.strokes
+    if strokes is None:
+        z = gb.numpy(L.Z) if L.Z in gb else None
+        try:
+            strokes = extract_strokes(
+                session.scene,
+                session.sensor,
+                session.objects,
+                crease_angle=crease,
+                depth_range=depth_range_of(z) if z is not None else None,
+            )
+        except ParameterError:  # a camera the strokes refuse: every line pixel is traced
+            strokes = Strokes([], gb.width, gb.height, dict(session.objects.names))
+    kinds = line_kinds(params)
+    names = session.objects.names
+    chosen = selected(names, split_globs(params.get("only")), split_globs(params.get("ignore")))
+    keep = [s for s in strokes if s.qi == 0 and s.kind in kinds and int(s.object_id[0]) in chosen]
+    style = make_style(
+        "lines", width=params["line_width"], color=params["line_color"], hidden=False
+    )
+    mask = gb.numpy(L.LINES) > 0.5
+    lines = [np.concatenate([s.points, s.points[:1]]) if s.closed else s.points for s in keep]
+    near = near_polylines(mask.shape, lines, params["line_width"] / 2.0 + 2.0)
+    subset = Strokes(
+        keep,
+        strokes.width,
+        strokes.height,
+        objects=strokes.objects,
+        depth_range=strokes.depth_range,
+        camera=strokes.camera,
+        params={"crease_angle": crease},
+    )
+    return StrokeLayer(subset, style, tuple(trace_strokes(mask & ~near)))
 
 
 def render_contours(

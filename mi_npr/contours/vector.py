@@ -20,20 +20,37 @@ becomes open paths ending one half-pixel inside the frame at most.
 outline points, and every dropped one lies within ``tolerance`` of the simplified path. A closed
 path is split at its two mutually farthest vertices first.
 
-**Strokes** (:func:`trace_strokes`) turn thin line masks (the ``lines`` layer above 0.5, the
-ray-tree edge classes) into polylines through the pixel centres, walking 8-connected chains from
-their ends and junctions (4-neighbours first, so an L-shaped corner is not cut twice), then
-simplified the same way.
+**Strokes** (:func:`trace_strokes`) turn line masks without an object-space source (the
+ray-tree edge classes, the lines a scene's strokes do not explain) into polylines through the
+pixel centres, all in array operations:
+
+1. *The pixel graph*: an edge between 8-neighbours, except a diagonal that a pixel 4-adjacent to
+   both bridges (an L-shaped corner is one corner, not a triangle).
+2. *Pruning*: a line two pixels wide makes every pixel a junction (its two rows and the rungs
+   between them). In rounds, an edge between two pixels of degree 3 or more is removed when it
+   comes first at both of its pixels in the order (ends where an edge continues it straight,
+   edge index): rungs go before the rows they join. Every pixel keeps two edges or more, so
+   every pixel stays on a path, and no edge joining two such pixels is left.
+3. *Chains*: a path goes on through a pixel of degree 2 and straight through a *crossing* (4
+   edges in two straight pairs: a thin line crossing another stays one path); it ends at an end
+   (degree 1) or a junction (3, or 4 that is no crossing: a T is three paths ending at its
+   junction). A cycle that meets no end or junction is a closed path: its first vertex repeated
+   last. A lone pixel is a path of one vertex. Found by pointer jumping on the half-edges
+   (each half-edge's successor on its walk), ``log2`` of the longest path steps.
+4. *Douglas-Peucker* on every chain at once: a segment is split at its farthest vertex while
+   that lies more than ``tolerance`` from the segment; so every pixel centre of the mask lies
+   within ``tolerance`` of a path, and every vertex is a pixel centre.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import mitsuba as mi
 import numpy as np
+from scipy.ndimage import distance_transform_edt
 
 from .. import layers as L
 from ..errors import ParameterError
@@ -241,66 +258,244 @@ def vectorize(
 
 
 # --------------------------------------------------------------------------------- strokes
-_N4 = ((1, 0), (0, 1), (-1, 0), (0, -1))
-_ND = ((1, 1), (-1, 1), (-1, -1), (1, -1))
 
 
-def _neighbours(mask: np.ndarray, x: int, y: int) -> list[tuple[int, int]]:
-    h, w = mask.shape
-    out = []
-    for dx, dy in _N4:
-        u, v = x + dx, y + dy
-        if 0 <= u < w and 0 <= v < h and mask[v, u]:
-            out.append((u, v))
-    for dx, dy in _ND:
-        u, v = x + dx, y + dy
-        if not (0 <= u < w and 0 <= v < h and mask[v, u]):
-            continue
-        # a diagonal step that a 4-neighbour already bridges is not an edge of its own
-        if (0 <= x + dx < w and mask[y, x + dx]) or (0 <= y + dy < h and mask[y + dy, x]):
-            continue
-        out.append((u, v))
-    return out
+def _pixel_graph(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The stroke graph of mask ``m`` (module docstring): pixel coordinates ``(x, y)`` in
+    row-major order, the undirected edges ``(i, j)`` between them, pruned, and the (H, W) map of
+    pixel indices (-1 off the mask)."""
+    h, w = m.shape
+    ys, xs = np.nonzero(m)
+    idx = np.full(m.shape, -1, np.int64)
+    idx[ys, xs] = np.arange(len(xs))
+    pairs = []
+    right = m[:, :-1] & m[:, 1:]
+    pairs.append((idx[:, :-1][right], idx[:, 1:][right]))
+    down = m[:-1, :] & m[1:, :]
+    pairs.append((idx[:-1, :][down], idx[1:, :][down]))
+    if h > 1 and w > 1:
+        a, b, c, d = m[:-1, :-1], m[:-1, 1:], m[1:, :-1], m[1:, 1:]
+        dr_ = a & d & ~b & ~c  # (x, y) -> (x + 1, y + 1)
+        pairs.append((idx[:-1, :-1][dr_], idx[1:, 1:][dr_]))
+        dl = b & c & ~a & ~d  # (x + 1, y) -> (x, y + 1)
+        pairs.append((idx[:-1, 1:][dl], idx[1:, :-1][dl]))
+    i = np.concatenate([p[0] for p in pairs])
+    j = np.concatenate([p[1] for p in pairs])
+    xy = np.stack([xs, ys], 1)
+    keep = _pruned(xy, idx, i, j)
+    return xy, i[keep], j[keep], idx
+
+
+def _straight(
+    xy: np.ndarray,
+    idx: np.ndarray,
+    edges: tuple[np.ndarray, np.ndarray, np.ndarray],
+    u: np.ndarray,
+    v: np.ndarray,
+) -> np.ndarray:
+    """Per step ``u -> v`` (pixel indices): the index of the edge among ``edges`` (``i``, ``j``,
+    live mask) that continues it straight beyond ``v`` (the same step again), or -1."""
+    i, j, live = edges
+    n = len(xy)
+    key = np.concatenate([i * n + j, j * n + i])
+    eid = np.concatenate([np.arange(len(i))] * 2)
+    order = np.argsort(key)
+    key, eid = key[order], eid[order]
+    h, w = idx.shape
+    nxt = 2 * xy[v] - xy[u]
+    inside = (nxt[:, 0] >= 0) & (nxt[:, 0] < w) & (nxt[:, 1] >= 0) & (nxt[:, 1] < h)
+    k = np.full(len(u), -1, np.int64)
+    k[inside] = idx[nxt[inside, 1], nxt[inside, 0]]
+    if not len(key):
+        return np.full(len(u), -1, np.int64)
+    want = v * n + k
+    at = np.minimum(np.searchsorted(key, want), len(key) - 1)
+    hit = (k >= 0) & (key[at] == want) & live[eid[at]]
+    return np.where(hit, eid[at], -1)
+
+
+def _pruned(xy: np.ndarray, idx: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """The edges kept (mask) after pruning (module docstring): in rounds, an edge between two
+    pixels of degree 3 or more goes when it is the first such edge at both of its pixels, in
+    the order (number of its ends where a live edge continues it straight, edge index)."""
+    n, e = len(xy), len(i)
+    live = np.ones(e, bool)
+    while True:
+        deg = np.bincount(np.concatenate([i[live], j[live]]), minlength=n)
+        cand = live & (deg[i] >= 3) & (deg[j] >= 3)
+        if not cand.any():
+            return live
+        c = np.flatnonzero(cand)
+        ahead = _straight(xy, idx, (i, j, live), i[c], j[c]) >= 0
+        behind = _straight(xy, idx, (i, j, live), j[c], i[c]) >= 0
+        rank = (ahead.astype(np.int64) + behind) * e + c
+        best = np.full(n, np.iinfo(np.int64).max)
+        np.minimum.at(best, i[c], rank)
+        np.minimum.at(best, j[c], rank)
+        live[c[(best[i[c]] == rank) & (best[j[c]] == rank)]] = False
+
+
+def _jump(succ: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pointer jumping along ``succ`` (a terminal points to itself): per element its terminal,
+    its number of steps to it and the smallest index met (over the whole cycle for elements on
+    a cycle, which never reach a fixed point)."""
+    n = len(succ)
+    ptr = succ.copy()
+    dist = (ptr != np.arange(n)).astype(np.int64)
+    low = np.minimum(np.arange(n), ptr)
+    for _ in range(int(n).bit_length()):
+        low = np.minimum(low, low[ptr])
+        dist = dist + dist[ptr]
+        ptr = ptr[ptr]
+    return ptr, dist, low
+
+
+def _chains(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The chains of mask ``m`` (module docstring): the pixels ``(x, y)`` of every chain, one
+    after the other, and the offsets of each chain in them (``xy[off[c]:off[c + 1]]``), chains
+    in the row-major order of their first pixel."""
+    xy, i, j, idx = _pixel_graph(m)
+    n, e = len(xy), len(i)
+    deg = np.bincount(np.concatenate([i, j]), minlength=n)
+    # half-edges: h < e runs i -> j, h + e is its reverse
+    tail, head = np.concatenate([i, j]), np.concatenate([j, i])
+    rev = np.concatenate([np.arange(e, 2 * e), np.arange(e)])
+    hid = np.arange(2 * e)
+    two = deg == 2
+    # a walk arriving at a pixel of degree 2 leaves by its other half-edge, one arriving at a
+    # crossing goes straight on; elsewhere it ends
+    by_tail = np.argsort(tail, kind="stable")
+    first = np.searchsorted(tail[by_tail], np.arange(n))
+    mid = two[head]
+    out_a = by_tail[np.minimum(first[head[mid]], 2 * e - 1)]
+    out_b = by_tail[np.minimum(first[head[mid]] + 1, 2 * e - 1)]
+    succ = hid.copy()
+    succ[mid] = np.where(out_a == rev[mid], out_b, out_a)
+    on = _straight(xy, idx, (i, j, np.ones(e, bool)), tail, head)
+    on_half = np.where(on < 0, -1, np.where(i[np.maximum(on, 0)] == head, on, on + e))
+    straight = np.bincount(head[on >= 0], minlength=n)
+    crossing = (deg == 4) & (straight == 4)
+    cross = crossing[head]
+    succ[cross] = on_half[cross]
+    two = two | crossing
+    ptr, _, low = _jump(succ)
+    # a cycle of degree-2 pixels is walked both ways: keep the orientation holding the smaller
+    # half-edge and cut it just before that one
+    ring = succ[ptr] != ptr
+    keep_ring = ring & (low < low[rev])
+    cut = keep_ring & (succ == low)
+    succ[cut] = hid[cut]
+    ptr, dist, _ = _jump(succ)
+    # a path between ends or junctions is walked from both: keep the orientation whose first
+    # half-edge is smaller than the other's
+    start = (~two[tail] & (hid < rev[ptr])) | (keep_ring & (hid == low))
+    s = np.flatnonzero(start)
+    chain = np.full(2 * e, -1)
+    chain[ptr[s]] = np.arange(len(s))
+    member = (~ring | keep_ring) & (chain[ptr] >= 0)
+    hs = np.flatnonzero(member)
+    c = chain[ptr[hs]]
+    # every chain: its first pixel, then the head of each half-edge in walking order; a lone
+    # pixel is a chain of one
+    singles = np.flatnonzero(deg == 0)
+    first_px = np.concatenate([tail[s], singles])
+    length = np.concatenate([dist[s] + 2, np.ones(len(singles), np.int64)])
+    order = np.argsort(first_px, kind="stable")
+    rank = np.empty(len(order), np.int64)
+    rank[order] = np.arange(len(order))
+    off = np.concatenate([[0], np.cumsum(length[order])])
+    seq = np.empty(int(off[-1]), np.int64)
+    seq[off[rank]] = first_px
+    seq[off[rank[c]] + 1 + dist[s[c]] - dist[hs]] = head[hs]
+    return xy[seq].astype(np.float64), off
+
+
+def _dp_chains(p: np.ndarray, off: np.ndarray, tolerance: float) -> np.ndarray:
+    """Douglas-Peucker on every chain ``p[off[c]:off[c + 1]]`` at once: the mask of kept
+    vertices. A chain's ends are kept; a segment is split at its farthest vertex while that lies
+    more than ``tolerance`` from the segment (the segment, not its line: a chain that turns back
+    keeps its turn). A closed chain (last vertex = first) has a segment of length 0 to begin
+    with, which its farthest vertex splits."""
+    n = len(p)
+    keep = np.zeros(n, bool)
+    keep[off[:-1][np.diff(off) > 0]] = True
+    keep[off[1:][np.diff(off) > 0] - 1] = True
+    live = np.flatnonzero(~keep)
+    ids = np.arange(n)
+    # the segment of every live vertex: the kept vertices before and after it
+    prev = np.maximum.accumulate(np.where(keep, ids, 0))[live]
+    nxt = np.minimum.accumulate(np.where(keep, ids, n)[::-1])[::-1][live]
+    while len(live):
+        a, b, q = p[prev], p[nxt], p[live]
+        ab = b - a
+        t = np.clip(np.sum((q - a) * ab, 1) / np.maximum(np.sum(ab * ab, 1), 1e-300), 0.0, 1.0)
+        d = np.hypot(*(q - a - t[:, None] * ab).T)
+        # live vertices of one segment are contiguous: one group per segment
+        bounds = np.flatnonzero(np.diff(prev, prepend=-1))
+        far = np.maximum.reduceat(d, bounds)
+        group = np.repeat(np.arange(len(bounds)), np.diff(np.append(bounds, len(live))))
+        split = far > tolerance
+        at_far = np.flatnonzero((d == far[group]) & split[group])
+        chosen = at_far[np.unique(group[at_far], return_index=True)[1]]
+        keep[live[chosen]] = True
+        cut = np.full(len(bounds), -1)
+        cut[group[chosen]] = live[chosen]
+        c = cut[group]
+        nxt = np.where(live < c, c, nxt)
+        prev = np.where(live > c, c, prev)
+        stay = split[group] & (live != c)
+        live, prev, nxt = live[stay], prev[stay], nxt[stay]
+    return keep
 
 
 def trace_strokes(mask: Any, tolerance: float = 0.25) -> list[np.ndarray]:
-    """Polylines (each (N, 2) float64 through pixel centres) covering a thin (H, W) line mask."""
+    """Polylines (each (N, 2) float64 through pixel centres) covering an (H, W) line mask (module
+    docstring): one per chain between ends and junctions, a closed one with its first vertex
+    repeated last, a lone pixel as one vertex; every pixel centre of the mask within
+    ``tolerance`` px of one, in the row-major order of their first pixel.
+
+    >>> m = np.zeros((5, 9), bool)
+    >>> m[2, 1:8] = True
+    >>> [p.tolist() for p in trace_strokes(m)]
+    [[[1.5, 2.5], [7.5, 2.5]]]
+    """
     m = np.asarray(mask, dtype=bool)
     if m.ndim != 2:
         raise ParameterError(f"stroke mask: expected an (H, W) array, got shape {m.shape}")
-    ys, xs = np.nonzero(m)
-    nbrs = {(int(x), int(y)): _neighbours(m, int(x), int(y)) for x, y in zip(xs, ys, strict=True)}
-    used: set[tuple[tuple[int, int], tuple[int, int]]] = set()
+    if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance >= 0):
+        raise ParameterError(f"tolerance = {tolerance!r}: must be a number >= 0 (pixels)")
+    p, off = _chains(m)
+    p += 0.5
+    keep = _dp_chains(p, off, float(tolerance))
+    counts = np.add.reduceat(keep, off[:-1]) if len(p) else np.zeros(0, np.int64)
+    return np.split(p[keep], np.cumsum(counts)[:-1]) if len(counts) else []
 
-    def walk(a: tuple[int, int], b: tuple[int, int]) -> list[tuple[int, int]]:
-        chain = [a]
-        prev, cur = a, b
-        used.add((a, b))
-        used.add((b, a))
-        while True:
-            chain.append(cur)
-            if len(nbrs[cur]) != 2:
-                return chain
-            nxt = nbrs[cur][0] if nbrs[cur][1] == prev else nbrs[cur][1]
-            if (cur, nxt) in used:
-                return chain
-            used.add((cur, nxt))
-            used.add((nxt, cur))
-            prev, cur = cur, nxt
 
-    lines: list[list[tuple[int, int]]] = []
-    for p in sorted(nbrs, key=lambda q: (q[1], q[0])):  # ends and junctions first
-        if len(nbrs[p]) != 2:
-            if not nbrs[p]:
-                lines.append([p])
-            for q in nbrs[p]:
-                if (p, q) not in used:
-                    lines.append(walk(p, q))
-    for p in sorted(nbrs, key=lambda q: (q[1], q[0])):  # what is left: closed loops
-        for q in nbrs[p]:
-            if (p, q) not in used:
-                lines.append(walk(p, q))
-    return [douglas_peucker(np.asarray(c, np.float64) + 0.5, tolerance) for c in lines]
+def near_polylines(
+    shape: tuple[int, int], polylines: Sequence[np.ndarray], radius: float
+) -> np.ndarray:
+    """(H, W) bool: the pixels whose centre lies within ``radius`` px of a pixel that one of
+    ``polylines`` ((N, 2) film positions, pixels) passes through. Each polyline is sampled every
+    0.25 px, so the distance measured is within 0.85 px of the true distance to the polyline."""
+    h, w = shape
+    pts = [np.zeros((0, 2))]
+    for line in polylines:
+        q = np.asarray(line, np.float64).reshape(-1, 2)
+        if len(q) > 1:
+            seg = np.diff(q, axis=0)
+            k = np.maximum(1, np.ceil(np.hypot(*seg.T) / 0.25).astype(np.int64))
+            t = np.arange(int(k.sum())) - np.repeat(np.cumsum(k) - k, k)
+            q = np.concatenate(
+                [q[:-1].repeat(k, 0) + seg.repeat(k, 0) * (t / k.repeat(k))[:, None], q[-1:]]
+            )
+        pts.append(q)
+    p = np.floor(np.concatenate(pts)).astype(np.int64)
+    p = p[(p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)]
+    on = np.zeros(shape, bool)
+    on[p[:, 1], p[:, 0]] = True
+    if not on.any():
+        return on
+    return distance_transform_edt(~on) <= radius
 
 
 def stroke_layers(
@@ -326,6 +521,7 @@ __all__ = [
     "RayIds",
     "VectorPath",
     "douglas_peucker",
+    "near_polylines",
     "stroke_layers",
     "trace_strokes",
     "vectorize",

@@ -30,7 +30,9 @@ closed (a closed stroke: its two offset rings, ``fill-rule="evenodd"``). Dashed 
 one opacity below 1 carries it (``stroke-opacity``, ``fill-opacity``); a stroke whose opacity
 varies along it (the ``thesis`` style) is a ``<g>`` of stroked paths, one per run of segments
 of one opacity (in steps of 1/32; the JSON has it per vertex). Coordinates have 3 decimals
-(0.0005 px). No raster image is embedded.
+(0.0005 px). No raster image is embedded. The document is written by
+:func:`mi_npr.io.svg.svg_document` (a :class:`~mi_npr.io.svg.StrokeLayer`), the writer of every
+SVG, so the ``lines`` drawing's ``<stem>_lines.svg`` holds its strokes the same way.
 
 **JSON** (UTF-8; non-finite numbers are ``null``)::
 
@@ -63,7 +65,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
 from pathlib import Path
 from typing import Any
 
@@ -71,161 +72,20 @@ import numpy as np
 
 from ..compose import PAPER
 from ..strokes.drawing import StrokeDrawing
-from ..strokes.model import KINDS, Stroke
-from ..strokes.outlines import normals_2d
+from ..strokes.model import KINDS
 from ..strokes.raster import on_background
 from ._atomic import check_writable_dir, output_set
-from .png import linear_to_srgb, write_png
-from .svg import xml_id
-from .text import quoteattr, write_text
-
-_INKSCAPE = "http://www.inkscape.org/namespaces/inkscape"
-#: Opacity levels of the SVG paths of a stroke whose opacity varies.
-OPACITY_STEPS = 32
-
-
-def _num(v: float) -> str:
-    t = f"{v:.3f}".rstrip("0").rstrip(".")
-    return "0" if t in ("-0", "") else t
-
-
-def _ring(points: np.ndarray, closed: bool) -> str:
-    coords = [f"{_num(x)} {_num(y)}" for x, y in np.asarray(points, np.float64).tolist()]
-    if not coords:
-        return ""
-    d = "M " + coords[0]
-    if len(coords) > 1:
-        d += " L " + " ".join(coords[1:])
-    return d + (" Z" if closed else "")
-
-
-def _hex(rgb: Any) -> str:
-    s = (linear_to_srgb(np.asarray(rgb, np.float32)) * 255.0 + 0.5).astype(np.uint8)
-    return "#" + "".join(f"{int(v):02x}" for v in s)
-
-
-def outline_path(stroke: Stroke, widths: np.ndarray) -> str:
-    """The ``d`` of a variable-width stroke's filled outline (module docstring)."""
-    n = normals_2d(stroke.points, stroke.closed)
-    half = (np.asarray(widths, np.float64) / 2.0)[:, None]
-    left, right = stroke.points + n * half, stroke.points - n * half
-    if stroke.closed:
-        return _ring(left, True) + " " + _ring(right[::-1], True)
-    return _ring(np.concatenate([left, right[::-1]]), True)
+from .png import write_png
+from .svg import StrokeLayer, svg_document
+from .text import write_text
 
 
 def stroke_svg(drawing: StrokeDrawing, title: str | None = None) -> str:
-    """The SVG text of a :class:`~mi_npr.strokes.drawing.StrokeDrawing` (module docstring)."""
-    st, style = drawing.strokes, drawing.style
-    w, h = st.width, st.height
-    out = [
-        '<?xml version="1.0" encoding="UTF-8"?>',
-        f'<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="{_INKSCAPE}" '
-        f'version="1.1" width="{w}" height="{h}" viewBox="0 0 {w} {h}">',
-    ]
-    if title:
-        out.append(f"<title>{_text(title)}</title>")
-    out.append(
-        '<g id="strokes" inkscape:groupmode="layer" inkscape:label="strokes" fill="none" '
-        'stroke-linecap="round" stroke-linejoin="round">'
-    )
-    taken = {"strokes", *KINDS}
-    for kind in KINDS:
-        groups: dict[int, list[str]] = {}
-        for i, s in enumerate(st.strokes):
-            if s.kind != kind or not style.drawn(s):
-                continue
-            if not np.any(style.opacity(s, st.depth_range) > 0):
-                continue  # transparent everywhere (eq. 5.1 finds no depth step along it)
-            groups.setdefault(int(s.object_id[0]), []).append(_path(i, s, drawing))
-        if not groups:
-            continue
-        out.append(
-            f'  <g id="{kind}" inkscape:groupmode="layer" inkscape:label="{kind}" '
-            f'data-kind="{kind}">'
-        )
-        for oid in sorted(groups):
-            name = st.name_of(oid)
-            gid = xml_id(f"{kind}.{name}", taken, str(oid))
-            label = quoteattr(_text(name))
-            out.append(
-                f"    <g id={quoteattr(gid)} inkscape:label={label} "
-                f'data-object-id="{oid}" data-name={label}>'
-            )
-            out.extend(groups[oid])
-            out.append("    </g>")
-        out.append("  </g>")
-    out.append("</g>")
-    out.append("</svg>")
-    return "\n".join(out) + "\n"
-
-
-def _path(i: int, s: Stroke, drawing: StrokeDrawing) -> str:
-    style, rng = drawing.style, drawing.strokes.depth_range
-    widths = style.widths(s, rng)
-    opacity = style.opacity(s, rng)
-    color = _hex(style.kind_color(s))
-    dash = style.dashes(s)
-    cls = "visible" if s.qi == 0 else "hidden"
-    attrs = f'class="{cls}" data-stroke="{i}" data-qi="{s.qi}"'
-    if s.through_glass:
-        attrs += ' data-through-glass="true"'
-    if float(np.ptp(opacity)) > 1e-9:
-        return _runs(attrs, s, widths, opacity, color, dash)
-    if opacity[0] < 1.0:
-        attrs += f' stroke-opacity="{opacity[0]:.4g}" fill-opacity="{opacity[0]:.4g}"'
-    constant = float(np.ptp(widths)) <= 1e-9 * max(1.0, float(widths.max()))
-    if dash or constant:
-        return f"      <path {attrs} {_stroked(s.points, s.closed, widths, color, dash)}/>"
-    rule = ' fill-rule="evenodd"' if s.closed else ""
-    return f'      <path {attrs} fill="{color}" stroke="none"{rule} d="{outline_path(s, widths)}"/>'
-
-
-def _stroked(
-    points: np.ndarray, closed: bool, widths: np.ndarray, color: str, dash: tuple[float, ...]
-) -> str:
-    extra = f' stroke-dasharray="{" ".join(_num(x) for x in dash)}"' if dash else ""
-    width = _num(float(np.mean(widths)))
-    return f'stroke="{color}" stroke-width="{width}"{extra} d="{_ring(points, closed)}"'
-
-
-def _runs(
-    attrs: str,
-    s: Stroke,
-    widths: np.ndarray,
-    opacity: np.ndarray,
-    color: str,
-    dash: tuple[float, ...],
-) -> str:
-    """A stroke whose opacity varies: a group of stroked paths, one per run of segments of
-    one opacity (the mean of the segment's ends, in steps of 1/32); transparent runs left
-    out."""
-    n = len(s)
-    ends = np.arange(n) if s.closed else np.arange(n - 1)
-    nxt = (ends + 1) % n
-    level = np.round(0.5 * (opacity[ends] + opacity[nxt]) * OPACITY_STEPS) / OPACITY_STEPS
-    out = [f"      <g {attrs}>"]
-    start = 0
-    for k in range(1, len(ends) + 1):
-        if k < len(ends) and level[k] == level[start]:
-            continue
-        if level[start] > 0:
-            idx = np.append(ends[start:k], nxt[k - 1])
-            a = f"{level[start]:.4g}"
-            body = _stroked(s.points[idx], False, widths[idx], color, dash)
-            out.append(f'        <path stroke-opacity="{a}" {body}/>')
-        start = k
-    out.append("      </g>")
-    return "\n".join(out)
-
-
-#: Characters XML 1.0 cannot hold, not even escaped (object names come from scene files).
-_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
-
-
-def _text(s: str) -> str:
-    s = _NOT_XML.sub("\ufffd", s)
-    return s.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    """The SVG text of a :class:`~mi_npr.strokes.drawing.StrokeDrawing` (module docstring):
+    :func:`mi_npr.io.svg.svg_document` with one :class:`~mi_npr.io.svg.StrokeLayer`."""
+    st = drawing.strokes
+    layer = StrokeLayer(st, drawing.style)
+    return svg_document([], st.width, st.height, title=title, strokes={"strokes": layer})
 
 
 def _finite(a: np.ndarray | None) -> Any:

@@ -15,8 +15,20 @@ Layout of the document (``width`` x ``height`` user units = pixels, y down like 
         </g>
         ...
       </g>
-      <g id="lines" inkscape:groupmode="layer" inkscape:label="lines" stroke="#000000" ...>
-        <path d="M ... L ..."/> ...                 optional: one layer per stroke drawing
+      <g id="edges_real" inkscape:groupmode="layer" inkscape:label="edges_real"
+         stroke="#..." ...>                   optional: paths traced from a mask
+        <path d="M ... L ..."/> ...
+      </g>
+      <g id="lines" inkscape:groupmode="layer" inkscape:label="lines" fill="none" ...>
+        <g id="silhouette" inkscape:groupmode="layer" data-kind="silhouette">   a StrokeLayer
+          <g id="silhouette.box" inkscape:label="box" data-object-id="1" data-name="box">
+            <path class="visible" data-stroke="0" data-qi="0" stroke="#000000"
+                  stroke-width="1" d="M 10.521 3.5 L ..."/>
+          </g>
+        </g>
+        <g id="traced" inkscape:groupmode="layer" data-source="image" stroke="#000000" ...>
+          <path d="..."/>                     lines of the image that no stroke explains
+        </g>
       </g>
 
 Every drawing is an Inkscape layer (``inkscape:groupmode="layer"``; other programs see plain
@@ -32,6 +44,12 @@ Holes carry ``fill-rule="evenodd"`` (inherited from their group too), so giving 
 as ``xlink:href``, which Inkscape 1.2 reads where it ignores SVG 2's ``href`` (browsers read
 both; the data is not written twice), linked (``beauty_href``, a file
 beside the SVG, named by ``xlink:href`` and ``href`` both) or left out. Writes are atomic.
+
+Layers of lines come after the contours, one per entry of ``strokes``: paths traced from a mask
+(:func:`mi_npr.contours.trace_strokes`, the ray-tree edge classes) in one colour, or a
+:class:`StrokeLayer` of object-space strokes (:mod:`mi_npr.strokes`): one sub-layer per edge
+kind, one group per object, one element per stroke in its style, coordinates with 3 decimals,
+as :mod:`mi_npr.io.strokes` documents for ``<stem>_strokes.svg``, which is written here too.
 """
 
 from __future__ import annotations
@@ -41,6 +59,7 @@ import io
 import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +69,9 @@ from ..compose import raw_beauty
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
 from ..params import MAX_RES, Param, check_arg, integer_range, real_range, rgb_color
+from ..strokes.model import KINDS, Stroke, Strokes
+from ..strokes.outlines import normals_2d
+from ..strokes.style import Style
 from ._atomic import atomic_output, check_writable_dir, output_set
 from .exr import write_exr
 from .png import linear_to_srgb, save_png, to_rgb8, write_png
@@ -87,15 +109,16 @@ def xml_id(name: str, taken: set[str], fallback: str) -> str:
     return s
 
 
-def _num(v: float) -> str:
-    t = f"{v:.2f}".rstrip("0").rstrip(".")
+def _num(v: float, digits: int = 2) -> str:
+    t = f"{v:.{digits}f}".rstrip("0").rstrip(".")
     return "0" if t in ("-0", "") else t
 
 
-def _polyline(points: np.ndarray, closed: bool) -> str:
+def _polyline(points: np.ndarray, closed: bool, digits: int = 2) -> str:
     if len(points) == 0:
         return ""
-    coords = [f"{_num(x)} {_num(y)}" for x, y in np.asarray(points, np.float64).tolist()]
+    pts = np.asarray(points, np.float64).tolist()
+    coords = [f"{_num(x, digits)} {_num(y, digits)}" for x, y in pts]
     d = "M " + coords[0]
     if len(coords) > 1:
         d += " L " + " ".join(coords[1:])
@@ -124,6 +147,144 @@ def _layer(gid: str, label: str, attrs: str = "") -> str:
     )
 
 
+#: Opacity levels of the SVG paths of a stroke whose opacity varies along it.
+OPACITY_STEPS = 32
+#: Decimals of a stroke's coordinates (0.0005 px).
+STROKE_DIGITS = 3
+
+
+@dataclass(frozen=True)
+class StrokeLayer:
+    """Object-space strokes as one layer of :func:`svg_document` (module docstring).
+
+    ``strokes`` are drawn in ``style`` (those :meth:`~mi_npr.strokes.style.Style.drawn` keeps;
+    one transparent everywhere is left out); ``traced``: polylines traced from the drawing's
+    image where it has lines that no stroke draws (:func:`mi_npr.contours.trace_strokes`),
+    written in the style's colour and width as one more sub-layer, ``traced``."""
+
+    strokes: Strokes
+    style: Style
+    traced: Sequence[np.ndarray] = ()
+
+
+def outline_path(stroke: Stroke, widths: np.ndarray) -> str:
+    """The ``d`` of a variable-width stroke's filled outline (module docstring)."""
+    n = normals_2d(stroke.points, stroke.closed)
+    half = (np.asarray(widths, np.float64) / 2.0)[:, None]
+    left, right = stroke.points + n * half, stroke.points - n * half
+    if stroke.closed:
+        ring = _polyline(left, True, STROKE_DIGITS) + " "
+        return ring + _polyline(right[::-1], True, STROKE_DIGITS)
+    return _polyline(np.concatenate([left, right[::-1]]), True, STROKE_DIGITS)
+
+
+def _stroke_layer(name: str, layer: StrokeLayer, taken: set[str]) -> list[str]:
+    """The lines of one :class:`StrokeLayer`: a sub-layer per edge kind (in
+    :data:`~mi_npr.strokes.KINDS` order), a group per object (the object of a stroke's first
+    vertex), a path per stroke; then the ``traced`` sub-layer."""
+    st, style = layer.strokes, layer.style
+    out = [_layer(name, name, 'fill="none" stroke-linecap="round" stroke-linejoin="round"')]
+    for kind in KINDS:
+        groups: dict[int, list[str]] = {}
+        for i, s in enumerate(st.strokes):
+            if s.kind != kind or not style.drawn(s):
+                continue
+            if not np.any(style.opacity(s, st.depth_range) > 0):
+                continue  # transparent everywhere (eq. 5.1 finds no depth step along it)
+            groups.setdefault(int(s.object_id[0]), []).append(_stroke_path(i, s, st, style))
+        if not groups:
+            continue
+        kid = quoteattr(xml_id(kind, taken, name))
+        out.append(
+            f'  <g id={kid} inkscape:groupmode="layer" inkscape:label="{kind}" data-kind="{kind}">'
+        )
+        for oid in sorted(groups):
+            obj = st.name_of(oid)
+            gid = xml_id(f"{kind}.{obj}", taken, str(oid))
+            label = quoteattr(_xml_safe(obj))
+            out.append(
+                f"    <g id={quoteattr(gid)} inkscape:label={label} "
+                f'data-object-id="{oid}" data-name={label}>'
+            )
+            out.extend(groups[oid])
+            out.append("    </g>")
+        out.append("  </g>")
+    traced = [_polyline(p, len(p) == 1, STROKE_DIGITS) for p in layer.traced]
+    if any(traced):
+        tid = quoteattr(xml_id("traced", taken, name))
+        width = _num(style.width, STROKE_DIGITS)
+        out.append(
+            f'  <g id={tid} inkscape:groupmode="layer" inkscape:label="traced" '
+            f'data-source="image" stroke="{_hex(style.color)}" stroke-width="{width}">'
+        )
+        out.extend(f'    <path d="{d}"/>' for d in traced if d)
+        out.append("  </g>")
+    out.append("</g>")
+    return out
+
+
+def _stroke_path(i: int, s: Stroke, st: Strokes, style: Style) -> str:
+    """One stroke's element (module docstring of :mod:`mi_npr.io.strokes`)."""
+    widths = style.widths(s, st.depth_range)
+    opacity = style.opacity(s, st.depth_range)
+    color = _hex(style.kind_color(s))
+    dash = style.dashes(s)
+    cls = "visible" if s.qi == 0 else "hidden"
+    attrs = f'class="{cls}" data-stroke="{i}" data-qi="{s.qi}"'
+    if s.through_glass:
+        attrs += ' data-through-glass="true"'
+    if float(np.ptp(opacity)) > 1e-9:
+        return _opacity_runs(attrs, s, widths, opacity, color, dash)
+    if opacity[0] < 1.0:
+        attrs += f' stroke-opacity="{opacity[0]:.4g}" fill-opacity="{opacity[0]:.4g}"'
+    constant = float(np.ptp(widths)) <= 1e-9 * max(1.0, float(widths.max()))
+    if dash or constant:
+        return f"      <path {attrs} {_stroked(s.points, s.closed, widths, color, dash)}/>"
+    rule = ' fill-rule="evenodd"' if s.closed else ""
+    return f'      <path {attrs} fill="{color}" stroke="none"{rule} d="{outline_path(s, widths)}"/>'
+
+
+def _stroked(
+    points: np.ndarray, closed: bool, widths: np.ndarray, color: str, dash: tuple[float, ...]
+) -> str:
+    extra = ""
+    if dash:
+        extra = f' stroke-dasharray="{" ".join(_num(x, STROKE_DIGITS) for x in dash)}"'
+    width = _num(float(np.mean(widths)), STROKE_DIGITS)
+    d = _polyline(points, closed, STROKE_DIGITS)
+    return f'stroke="{color}" stroke-width="{width}"{extra} d="{d}"'
+
+
+def _opacity_runs(
+    attrs: str,
+    s: Stroke,
+    widths: np.ndarray,
+    opacity: np.ndarray,
+    color: str,
+    dash: tuple[float, ...],
+) -> str:
+    """A stroke whose opacity varies: a group of stroked paths, one per run of segments of
+    one opacity (the mean of the segment's ends, in steps of 1/:data:`OPACITY_STEPS`);
+    transparent runs left out."""
+    n = len(s)
+    ends = np.arange(n) if s.closed else np.arange(n - 1)
+    nxt = (ends + 1) % n
+    level = np.round(0.5 * (opacity[ends] + opacity[nxt]) * OPACITY_STEPS) / OPACITY_STEPS
+    out = [f"      <g {attrs}>"]
+    start = 0
+    for k in range(1, len(ends) + 1):
+        if k < len(ends) and level[k] == level[start]:
+            continue
+        if level[start] > 0:
+            idx = np.append(ends[start:k], nxt[k - 1])
+            a = f"{level[start]:.4g}"
+            body = _stroked(s.points[idx], False, widths[idx], color, dash)
+            out.append(f'        <path stroke-opacity="{a}" {body}/>')
+        start = k
+    out.append("      </g>")
+    return "\n".join(out)
+
+
 def svg_document(
     contours: Iterable,
     width: int,
@@ -134,14 +295,15 @@ def svg_document(
     color: Sequence[float] = (1.0, 0.0, 0.0),
     stroke_width: float = 1.0,
     title: str | None = None,
-    strokes: Mapping[str, tuple[Sequence[np.ndarray], Sequence[float]]] | None = None,
+    strokes: Mapping[str, StrokeLayer | tuple[Sequence[np.ndarray], Sequence[float]]] | None = None,
 ) -> str:
     """The SVG text for ``contours`` (:class:`~mi_npr.contours.vector.VectorPath` or
     :class:`~mi_npr.contours.Contour`) over an image of ``width`` x ``height`` pixels.
 
     ``beauty`` ((H, W, 3) linear RGB) is embedded beneath them as a PNG, or ``beauty_href``
-    (a file name or URL) is linked instead. ``strokes`` maps a layer name to (polylines, linear
-    RGB colour): one more layer of open paths per entry (depth lines, ray-tree edge classes).
+    (a file name or URL) is linked instead. ``strokes`` maps a layer name to a
+    :class:`StrokeLayer` (object-space strokes, each in its style) or to (polylines, linear
+    RGB colour), paths traced from an image (ray-tree edge classes): one more layer per entry.
     ``color`` is linear RGB (written as sRGB hex)."""
     w = check_arg("write_svg", _WIDTH, width)
     h = check_arg("write_svg", _HEIGHT, height)
@@ -204,7 +366,11 @@ def svg_document(
         out.append("  </g>")
     if groups or not strokes:
         out.append("</g>")
-    for name, (lines, rgb) in (strokes or {}).items():
+    for name, entry in (strokes or {}).items():
+        if isinstance(entry, StrokeLayer):
+            out.extend(_stroke_layer(name, entry, taken))
+            continue
+        lines, rgb = entry
         out.append(
             _layer(
                 name,
