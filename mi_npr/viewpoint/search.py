@@ -86,7 +86,7 @@ from ..camera import (
 )
 from ..errors import ParameterError, SceneError
 from ..memory import check_images
-from ..params import MAX_RES, MAX_VIEW_DEPTH, Param, check_arg, entry, integer_range
+from ..params import MAX_RES, MAX_VIEW_DEPTH, Param, check_arg, entry, integer_range, names
 from ..scene import load_scene, sensor_of
 from . import idbuffer
 from .measures import MEASURES, SparseAreas, Topology, check_measure
@@ -178,7 +178,7 @@ class Viewing:
 
 def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray | None:
     """The area-table columns that stay when the objects named ``ignore`` are ignored."""
-    if not ignore:
+    if not names("ignore", ignore):
         return None
     by_name = {v: k for k, v in polys.table.names.items()}
     unknown = [n for n in ignore if n not in by_name]
@@ -236,7 +236,7 @@ def viewing(
     size = idbuffer.image_size(res, aspect)
     check_images(size[0], size[1], 12, "ID buffers")  # the largest batch: 12 first-level midpoints
     polys = idbuffer.polygons(scene)
-    ignore = (ignore,) if isinstance(ignore, str) else tuple(ignore)
+    ignore = (ignore,) if isinstance(ignore, str) else names("ignore", ignore)
     keep = _kept_columns(polys, ignore)  # checks the names first
     centre, R, inner = _bounding_sphere(scene, polys, ignore)
     if target is not None or radius is not None:
