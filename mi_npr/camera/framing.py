@@ -56,10 +56,14 @@ FLAT = 1e-3
 HUGE = 4.0
 
 
-def objects_that_matter(scene: mi.Scene) -> list[mi.Shape]:
+def objects_that_matter(
+    scene: mi.Scene, shapes: Sequence[mi.Shape] | None = None
+) -> list[mi.Shape]:
     """The shapes a view is framed on (module docstring): all but emitters' shapes, flat
-    shapes and shapes far larger than the rest; all of them when that leaves none."""
-    shapes = list(scene.shapes())
+    shapes and shapes far larger than the rest; all of them when that leaves none. Chosen
+    among ``shapes`` when given (the scene's shapes but those a user ignores): the one rule
+    for every camera placed around a scene (orbit, sphere, best view, exploration paths)."""
+    shapes = list(scene.shapes()) if shapes is None else list(shapes)
     boxes = [shape_bbox(s) for s in shapes]
     ext = [np.asarray(b[1] - b[0], np.float64) for b in boxes]
     keep = [
