@@ -5,9 +5,20 @@ The G-buffer of :mod:`mi_npr.render` has one exact ray per pixel centre, so ever
 of whole pixels, jagged wherever it is not axis-aligned. With ``n > 1`` the G-buffer is traced
 again with ``n x n`` rays per pixel, at the sub-pixel centres ``x + (i + 0.5) / n`` (the centres
 of the pixels of a film ``n`` times larger), the chain of :func:`mi_npr.kernels.lines` runs on
-that ``(n H, n W)`` G-buffer with ``line_width`` scaled by ``n``, and each film pixel gets the
-mean of its ``n x n`` block: the gray level is the share of the pixel's area that the line
-covers, so lines come out smooth at the film's resolution and keep their width in film pixels.
+that ``(n H, n W)`` G-buffer with lines :func:`aa_width` sub-pixels wide, and each film pixel
+gets the mean of its ``n x n`` block: the gray level is the share of the pixel's area that the
+line covers, so lines come out smooth at the film's resolution.
+
+**Full ink on every line** (:func:`aa_width`). A ``w``-px line becomes a band of
+``W = max(w n, 2 n - 1)`` sub-pixels: at least ``2 - 1/n`` film pixels wide. ``2 n - 1``
+consecutive sub-pixels always hold one film pixel's ``n`` whole, so an axis-aligned line covers
+at least one film pixel fully wherever its sub-pixel position falls: its darkest pixel is full
+ink, as at ``n = 1``, never two light-gray halves (a band of exactly ``n`` sub-pixels at a third
+of a pixel gives 0.67 + 0.33). Across an axis-aligned line the ink adds up to ``W / n`` px
+(``5/3`` for ``w = 1``, ``n = 3``) whatever the position, so a moving line does not pulse, and a
+silhouette against the background carries the same ink as a crease. Lines already that wide
+(``w >= 2 - 1/n``) keep ``w n``; a line thinner than 1 px is the 1-px band lightened by ``w``,
+as :func:`mi_npr.kernels.widen_lines` lightens it at ``n = 1``. At ``n = 1``, ``W = w``.
 
 How this extends the thesis (section 5.1). Eq. 5.1 already gives gray levels to small depth
 steps; supersampling carries its contours to sub-pixel positions: a contour that runs through a
@@ -23,9 +34,10 @@ supersampled resolution, in sub-pixels:
 - ``max_density`` measures ink over a 9x9 window of sub-pixels; ``bright_fade`` is applied after
   the box filter, from the film-resolution beauty.
 
-``antialiased_lines(..., n)`` equals ``box_filter(lines(G, line_width=w * n), n)`` with ``G`` the
-pixel-centre G-buffer of the same camera on a film ``n`` times larger (bit for bit where the
-sub-pixel positions are exact in float32, e.g. ``n`` a power of two).
+``antialiased_lines(..., n)`` equals ``box_filter(lines(G, line_width=aa_width(w, n)), n)``
+(times ``w`` below 1 px) with ``G`` the pixel-centre G-buffer of the same camera on a film ``n``
+times larger (bit for bit where the sub-pixel positions are exact in float32, e.g. ``n`` a power
+of two).
 """
 
 from __future__ import annotations
@@ -61,13 +73,25 @@ def aa_factor(v: Any) -> str | None:
     return None if ok else f"must be an integer in [1, {MAX_AA}] (rays per pixel side)"
 
 
+def aa_width(width: float, n: int) -> float:
+    """The width in sub-pixels of a ``width``-px line on the ``n``-times supersampled G-buffer:
+    ``max(width n, 2 n - 1)``, the narrowest band that always covers one film pixel whole
+    (module docstring); ``2 n - 1`` below 1 px, where the ink is then scaled by ``width``.
+
+    >>> aa_width(1.0, 3), aa_width(2.0, 3), aa_width(1.0, 1), aa_width(0.5, 4)
+    (5.0, 6.0, 1.0, 7.0)
+    """
+    return float(width) * n if width * n >= 2 * n - 1 else 2.0 * n - 1.0
+
+
 def check_aa_width(width: float, n: int, who: str = "") -> None:
-    """``line_width`` is drawn ``n`` times wider on the supersampled G-buffer: at most
-    :data:`~mi_npr.kernels.ink.MAX_WIDTH` sub-pixels."""
-    if width * n > MAX_WIDTH:
+    """The supersampled line (:func:`aa_width`) is at most
+    :data:`~mi_npr.kernels.ink.MAX_WIDTH` sub-pixels wide."""
+    sub = aa_width(width, n)
+    if sub > MAX_WIDTH:
         prefix = f"{who}: " if who else ""
         raise ParameterError(
-            f"{prefix}line_width = {width:g} with line_aa = {n}: {width * n:g} sub-pixels wide, "
+            f"{prefix}line_width = {width:g} with line_aa = {n}: {sub:g} sub-pixels wide, "
             f"more than {MAX_WIDTH:g}"
         )
 
@@ -139,8 +163,10 @@ def antialiased_lines(
     if params.get("leaf_edges"):
         big = big.with_layers({L.LEAF_ID: leaf_id_layer(scene, big)})
     level = float(params.get("bright_fade", 0.0))
-    sub = {**params, "line_width": width * n, "bright_fade": 0.0}
+    sub = {**params, "line_width": aa_width(width, n), "bright_fade": 0.0}
     ink = box_filter(lines(big, **sub), n)
+    if width < 1.0:  # thinner than a pixel: the 1-px line, lightened (module docstring)
+        ink = mi.TensorXf(ink.array * width, shape=ink.shape)
     if level > 0:
         ink = mi.TensorXf(ink.array * fade(gb, Grid(gb.shape, ink.array), level), shape=gb.shape)
     dr.eval(ink)

@@ -71,6 +71,7 @@ from .errors import (
     check_input_file,
     for_terminal,
     one_line,
+    shown,
 )
 from .io import check_writable_dir
 from .io.manifest import MANIFEST, append_row, check_manifest, read_rows, scene_hash
@@ -106,6 +107,8 @@ class JobResult:
 
 def parse_define(text: str) -> tuple[str, str]:
     """``"name=value"`` -> ``(name, value)``; :class:`ParameterError` if malformed."""
+    if not isinstance(text, str):
+        raise ParameterError(f"-D {shown(text)}: expected the text name=value")
     name, sep, value = text.partition("=")
     name = name.strip()
     if not sep:
@@ -591,6 +594,8 @@ def plan(
         raise ParameterError(f"views = {views!r}: expected a spec or a list of cameras")
     if isinstance(scenes, (str, os.PathLike)):
         scenes = [scenes]
+    if not isinstance(scenes, Sequence):
+        raise ParameterError(f"scenes = {shown(scenes)}: expected a scene file or a list of them")
     if not scenes:
         raise ParameterError("scenes: give at least one scene")
     paths = [str(check_input_file(s, SceneError).resolve()) for s in scenes]

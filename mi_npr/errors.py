@@ -12,7 +12,11 @@ from pathlib import Path
 
 
 class NprError(Exception):
-    """Base class of every error mi-npr raises on purpose."""
+    """Base class of every error mi-npr raises on purpose. Its text is one line: line breaks
+    in a message (a value's multi-line ``repr``, a library's message) become spaces."""
+
+    def __str__(self) -> str:
+        return " ".join(super().__str__().split())
 
 
 class SceneError(NprError):
@@ -56,11 +60,34 @@ def one_line(exc: BaseException) -> str:
     return text
 
 
+def shown(value: object, limit: int = 60) -> str:
+    """``repr(value)`` on one line and at most ``limit`` characters, for messages that name a
+    bad value (an array's ``repr`` spans lines and pages).
+
+    >>> shown([1, 2])
+    '[1, 2]'
+    >>> shown("x" * 100, 10)
+    "'xxxxxx..."
+    """
+    text = " ".join(repr(value).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def as_path(value: object, what: str = "path", error: type[NprError] = ParameterError) -> Path:
+    """``value`` as a Path if it names one (a ``str`` or ``os.PathLike``, not empty), else
+    ``error`` naming ``what`` and the value: ``None``, a number or a list is no file name."""
+    if isinstance(value, (str, os.PathLike)):
+        text = os.fspath(value)
+        if isinstance(text, str) and text:
+            return Path(text)
+    raise error(f"{what} = {shown(value)}: expected a file name (str or path)")
+
+
 def check_input_file(path: str | os.PathLike[str], error: type[NprError] = InputError) -> Path:
     """``path`` as a Path if it is a readable regular file, else ``error`` with the reason:
     "no such file", "is a directory", "not a regular file" (a device, a FIFO, a socket) or
     "permission denied". One place for every input file (scenes, EXRs, meshes, HLPs)."""
-    p = Path(path)
+    p = as_path(path, "input file", error)
     try:
         st = p.stat()
     except FileNotFoundError:

@@ -28,7 +28,7 @@ import mitsuba as mi
 import numpy as np
 
 from . import layers as L
-from .errors import ParameterError
+from .errors import ParameterError, shown
 
 
 def to_numpy(x: Any) -> np.ndarray:
@@ -133,9 +133,24 @@ class Projection:
     far_clip: float = 1e4
 
     def __post_init__(self) -> None:
-        m = np.asarray(self.to_world, dtype=np.float64).reshape(4, 4)
+        try:
+            m = np.asarray(self.to_world, dtype=np.float64).reshape(4, 4)
+        except (TypeError, ValueError):
+            m = np.full(1, np.nan)
+        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+            raise ParameterError(f"to_world = {shown(self.to_world)}: expected a finite 4x4 matrix")
         object.__setattr__(self, "to_world", m)
-        object.__setattr__(self, "resolution", (int(self.resolution[0]), int(self.resolution[1])))
+        try:
+            w, h = self.resolution
+        except (TypeError, ValueError):
+            w = h = None
+        if not all(
+            isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1 for v in (w, h)
+        ):
+            raise ParameterError(
+                f"resolution = {shown(self.resolution)}: expected (width, height), integers >= 1"
+            )
+        object.__setattr__(self, "resolution", (int(w), int(h)))
 
     @property
     def origin(self) -> np.ndarray:

@@ -36,7 +36,7 @@ from .gbuffer import GBuffer
 from .params import Param, read_props
 from .raycast import require_jit
 from .render import _headlight, channels, render_gbuffer
-from .scene import object_table, sensor_of
+from .scene import object_table, replaced_integrator, sensor_of
 from .session import SceneSession, check_spp
 
 
@@ -108,6 +108,19 @@ def _count(v: Any) -> Any:
     return v
 
 
+class _Without:
+    """``props`` without the keys ``drop``: what :func:`read_props` needs (``keys``, ``get``)."""
+
+    def __init__(self, props: mi.Properties, drop: Sequence[str]) -> None:
+        self._props, self._drop = props, set(drop)
+
+    def keys(self) -> list[str]:
+        return [k for k in self._props.keys() if k not in self._drop]
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return self._props.get(key, default)
+
+
 def _refuse_other_objects(plugin: str, props: mi.Properties) -> None:
     """A nested object that is not an integrator (a ``<bsdf>`` put inside the integrator by
     mistake) is an error naming it, not silently ignored."""
@@ -145,6 +158,16 @@ class NprIntegrator(mi.SamplingIntegrator):
         if len(nested) > 1:
             raise ParameterError(f"{self.PLUGIN}: at most one nested (beauty) integrator")
         self.beauty: mi.Integrator | None = nested[0] if nested else None
+        known = {p.name for p in (*self.PARAMS, CRYPTOMATTE)}
+        foreign = [
+            k for k in props.keys() if k not in known and not isinstance(props.get(k), mi.Object)
+        ]
+        own = replaced_integrator()
+        if foreign and self.beauty is None and own is not None:
+            # A define replaced the scene's integrator by this one: the scene's own type, with
+            # the settings this plugin does not take, renders the beauty.
+            self.beauty = mi.load_dict({"type": own, **{k: props.get(k) for k in foreign}})
+            props = _Without(props, foreign)
         self.params: dict[str, Any] = read_props(
             self.PLUGIN, (*self.PARAMS, CRYPTOMATTE), props, lambda v: isinstance(v, mi.Object)
         )

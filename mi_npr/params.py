@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import ParameterError
+from .errors import ParameterError, shown
 
 Rule = Callable[[Any], "str | None"]
 
@@ -112,9 +112,20 @@ class Param:
             raise TypeError(f"Param {self.name!r}: an integer parameter needs a bounded check")
 
 
+def names(what: str, value: Any) -> tuple[str, ...]:
+    """``value`` as a tuple of names (a list or tuple of ``str``), or :class:`ParameterError`
+    naming ``what``: a lone string is one name spelt out letter by letter, not a list."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, set, frozenset)):
+        raise ParameterError(f"{what} = {shown(value)}: expected a list of names")
+    bad = [v for v in value if not isinstance(v, str)]
+    if bad:
+        raise ParameterError(f"{what}: {shown(bad[0])} is not a name")
+    return tuple(value)
+
+
 def coerce(plugin: str, p: Param, value: Any) -> Any:
     """Convert ``value`` to ``p.type`` or raise :class:`ParameterError`."""
-    bad = f"{plugin}: parameter {p.name!r} = {value!r}"
+    bad = f"{plugin}: parameter {p.name!r} = {shown(value)}"
     if value is None:
         return None
     if isinstance(value, np.generic) and not isinstance(value, (np.str_, np.bytes_)):

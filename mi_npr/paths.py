@@ -46,13 +46,14 @@ from tqdm import tqdm
 from . import layers as L
 from .batch import run
 from .camera import Camera, orbit, read_cameras, resolve, rotate, sensor_for, to_json
+from .camera.model import vector
 from .coherence import line_variants, popping
-from .errors import NprWarning, ParameterError, SceneError
+from .errors import NprWarning, ParameterError, SceneError, as_path, shown
 from .gbuffer import GBuffer
 from .io import read_exr, write_layered_outputs, write_text
 from .io.frames import check_format, write_coherence, write_video
 from .memory import check_path
-from .params import MAX_FRAMES, Param, integer_range, real_range
+from .params import MAX_FRAMES, Param, integer_range, names, real_range
 from .pipeline import render_layers
 from .scene import load_scene, sensor_of
 from .session import SceneSession
@@ -94,7 +95,7 @@ def _times(n: int) -> np.ndarray:
 def check_frames(frames: Any) -> int:
     """``frames`` as an int in [1, :data:`MAX_FRAMES`], else a :class:`ParameterError`."""
     if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)):
-        raise ParameterError(f"frames = {frames!r}: must be an integer")
+        raise ParameterError(f"frames = {shown(frames)}: must be an integer")
     if not 1 <= frames <= MAX_FRAMES:
         raise ParameterError(f"frames = {frames}: must be in [1, {MAX_FRAMES}]")
     return int(frames)
@@ -151,6 +152,9 @@ def _transport(up: np.ndarray, d0: np.ndarray, d1: np.ndarray) -> np.ndarray:
 
 def key_frames(keys: int, frames: int) -> list[int]:
     """The frame of each of ``keys`` keyframes in a path of ``frames`` frames."""
+    frames = check_frames(frames)
+    if isinstance(keys, bool) or not isinstance(keys, (int, np.integer)) or not 1 <= keys <= frames:
+        raise ParameterError(f"keys = {shown(keys)}: must be an integer in [1, frames = {frames}]")
     if keys == 1:
         return [0]
     return [round(k * (frames - 1) / (keys - 1)) for k in range(keys)]
@@ -217,7 +221,7 @@ def angular_steps(cameras: Sequence[Camera], centre: Sequence[float] | None = No
     C = (
         np.array([c.target for c in cameras])
         if centre is None
-        else np.broadcast_to(np.asarray(centre, np.float64), (len(cameras), 3))
+        else np.broadcast_to(vector("centre", centre), (len(cameras), 3))
     )
     R = _unit(np.array([c.origin for c in cameras]) - C)
     speed = np.degrees(np.arccos(np.clip(np.sum(R[1:] * R[:-1], axis=1), -1, 1)))
@@ -427,6 +431,7 @@ def path_qualities(
     """The quality (eq. 1, 2 or 3) of every camera's view at the viewing sphere's distance
     (:func:`mi_npr.viewpoint.viewing`): for comparing paths of different radii."""
 
+    check_measure(measure)
     s = load_scene(scene)
     view = viewing(s, res=res)
     d = np.array([np.subtract(c.origin, view.target) for c in cameras])
@@ -443,7 +448,7 @@ class FrameFiles(Sequence):
     two frames in memory however long the path."""
 
     def __init__(self, outdir: str | os.PathLike[str], frames: int) -> None:
-        self.outdir, self.frames = Path(outdir), int(frames)
+        self.outdir, self.frames = as_path(outdir, "output directory"), check_frames(frames)
 
     def __len__(self) -> int:
         return self.frames
@@ -533,7 +538,8 @@ def render_frames(
         raise ParameterError("render_frames: no cameras")
     if video is not None:
         check_format(video)
-    outdir = Path(out)
+    drawings = names("drawings", drawings)
+    outdir = as_path(out, "output directory")
     outdir.mkdir(parents=True, exist_ok=True)
     files: list[Path] = []
     session = None

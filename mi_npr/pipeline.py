@@ -41,6 +41,7 @@ from .drawings import DRAWINGS, drawing, of_plugin, split_params
 from .errors import ParameterError
 from .gbuffer import GBuffer
 from .io.svg import StrokeLayer
+from .params import names
 from .render import render_gbuffer
 from .scene import merge_defines
 from .session import SceneSession
@@ -61,7 +62,7 @@ def settings(
     scene's integrator, and Cryptomatte when that integrator has ``cryptomatte`` on. Each takes
     from ``params`` (:func:`~mi_npr.drawings.split_params`) the names its table has, over the
     scene integrator's XML values (when it is that plugin), over the table's defaults."""
-    for d in drawings:
+    for d in names("drawings", drawings):
         drawing(d)
     own = of_plugin(getattr(integrator, "PLUGIN", None))
     xml = dict(getattr(integrator, "params", {}) or {})
@@ -155,7 +156,7 @@ def render_layers(
         resolution=resolution,
     )
     integ = session.scene.integrator()
-    asked = [*drawings, *(["cryptomatte"] if cryptomatte else [])]
+    asked = [*names("drawings", drawings), *(["cryptomatte"] if cryptomatte else [])]
     with session.step("reading the drawings' parameters"):
         on = settings(integ, asked, params, scene_drawings)
         for name in on:

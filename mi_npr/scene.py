@@ -23,6 +23,7 @@ import hashlib
 import os
 import re
 import stat
+import threading
 import xml.etree.ElementTree as ET
 from collections import Counter
 from collections.abc import Iterator, Mapping
@@ -171,6 +172,37 @@ def _check_referenced(path: str, values: Mapping[str, str]) -> None:
             raise SceneError(f"{path}: {f}: {what}")
 
 
+#: The scene's own integrator type while :func:`load_scene` loads a scene whose integrator a
+#: define (``-D integrator=npr_lines``) replaced with one of mi-npr's: see
+#: :func:`replaced_integrator`. Process-wide, not a context variable: Mitsuba instantiates
+#: plugins on its own loader threads; the lock keeps two such loads from mixing their values.
+_REPLACED: list[str | None] = [None]
+_REPLACED_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _replacing(own: str | None) -> Iterator[None]:
+    if own is None:
+        yield
+        return
+    with _REPLACED_LOCK:
+        _REPLACED[0] = own
+        try:
+            yield
+        finally:
+            _REPLACED[0] = None
+
+
+def replaced_integrator() -> str | None:
+    """While a scene loads: the plugin type of the scene's own integrator (its
+    ``<default name="integrator" value="path"/>``) when a define set ``integrator`` to one of
+    mi-npr's plugins (``npr_*``), else ``None``. The mi-npr integrator then takes the scene's
+    integrator, built with the properties it does not know itself (``max_depth``,
+    ``rr_depth``, ``hide_emitters``...), as its beauty, instead of refusing them: the scene's
+    own settings keep rendering the beauty, and the drawing goes on top."""
+    return _REPLACED[0]
+
+
 def load_scene(
     scene: str | os.PathLike[str] | mi.Scene,
     /,
@@ -205,8 +237,11 @@ def load_scene(
     values = {k: _define_value(k, v) for k, v in defines.items()}
     _use_search_paths()
     _check_referenced(path, values)
+    own = default_values(path).get("integrator", "")
+    replaced = str(values.get("integrator", ""))
+    beauty = own if replaced.startswith("npr_") and own and not own.startswith("npr_") else None
     try:
-        with loading_threads():
+        with loading_threads(), _replacing(beauty):
             loaded = mi.load_file(path, optimize=False, **values)
     except Exception as e:  # Mitsuba raises RuntimeError for every parse/instantiation problem
         unused = re.findall(r"\$(\w+)=", str(e)) if "unused parameters" in str(e) else []

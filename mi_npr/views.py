@@ -54,7 +54,9 @@ from .camera import (
     to_json,
 )
 from .errors import ParameterError
-from .params import MAX_BEST, MAX_VIEWS, SEED_MAX, Param, check_arg, integer_range
+from .params import MAX_BEST, MAX_VIEWS, SEED_MAX, Param, check_arg, integer_range, seed_rule
+from .scene import load_scene
+from .viewpoint.measures import check_measure
 from .viewpoint.search import check_shapes, search, viewing
 
 #: The counts inside ``mi-npr batch --views SPEC`` (``orbit:N``, ``sphere:N``, ``best:K``, the
@@ -155,6 +157,13 @@ def _random_seed(text: str, option: str) -> int:
     return seed
 
 
+def _whole(who: str, name: str, value: Any, rule: Any) -> int:
+    """``value`` as an int that ``rule`` accepts, or :class:`ParameterError`."""
+    if value is None:
+        raise ParameterError(f"{who}: parameter {name!r} = None: expected an integer")
+    return check_arg(who, Param(name, int, 0, name, rule), value)
+
+
 def random_directions(n: int, seed: int = 0) -> np.ndarray:
     """``n`` unit vectors drawn uniformly on the sphere (normalised 3D standard normals) by
     numpy's PCG64 generator seeded with ``seed``, float64 (n, 3): the same ``(n, seed)`` gives
@@ -166,6 +175,8 @@ def random_directions(n: int, seed: int = 0) -> np.ndarray:
     >>> bool(np.array_equal(d[:2], random_directions(2, seed=1)))
     True
     """
+    n = _whole("random_directions", "n", n, integer_range(1, MAX_VIEWS))
+    seed = _whole("random_directions", "seed", seed, seed_rule)
     rng = np.random.Generator(np.random.PCG64(seed))
     out = np.empty((n, 3))
     for k in range(n):  # one draw per view: a longer list keeps the views of a shorter one
@@ -228,6 +239,7 @@ def sphere(
     the directions are :func:`random_directions` instead (the whole sphere; ``upper`` is
     ignored)."""
 
+    scene = load_scene(scene)
     below = seed is not None or not upper
     view = viewing(scene, res=32, sensor=sensor, allow_below=below)
     c, r, _ = bounding_sphere(scene)
@@ -245,6 +257,9 @@ def best(scene: Any, sensor: Any, k: int, measure: str = "entropy") -> list[Came
     """The ``k`` best-rated viewpoints of best view's search (best first, ties in evaluation
     order)."""
 
+    scene = load_scene(scene)
+    k = _whole("views best", "k", k, integer_range(1, MAX_BEST))
+    check_measure(measure)
     check_shapes(scene)
     view = viewing(scene, sensor=sensor)
     bv = search(scene, view, measure, 3)

@@ -51,7 +51,8 @@ def test01_box_filter_matches_reference():
 @pytest.mark.parametrize("params", [{}, {"line_width": 1.5, "t": 0.5}])
 def test02_supersampled_equals_box_filtered_large_film(tmp_path, n, params):
     """n x n rays per pixel = the pixel centres of a film n times larger (exact for powers of
-    two), so the AA lines are the large film's lines, line_width scaled by n, box-filtered."""
+    two), so the AA lines are the large film's lines, line_width scaled by n (at least 2n - 1
+    sub-pixels), box-filtered."""
     w, h = 24, 16
     scene = _scene(tmp_path, w, h)
     gb = mi_npr.render(scene)
@@ -61,7 +62,8 @@ def test02_supersampled_equals_box_filtered_large_film(tmp_path, n, params):
     for name in (L.Z, L.OBJECT_ID, *L.N):
         np.testing.assert_array_equal(sup.numpy(name), big.numpy(name), err_msg=name)
     width = params.get("line_width", 1.0)
-    expected = ref_box(np.asarray(K.lines(big, **{**params, "line_width": width * n})), n)
+    sub = max(width * n, 2 * n - 1)  # at least 2 - 1/n px: one film pixel always whole
+    expected = ref_box(np.asarray(K.lines(big, **{**params, "line_width": sub})), n)
     got = np.asarray(antialiased_lines(scene, sensor, gb, n, **params))
     assert got.shape == (h, w) and got.dtype == np.float32
     np.testing.assert_allclose(got, expected, atol=1e-6)
@@ -74,7 +76,7 @@ def test03_three_by_three_matches_up_to_rounding(tmp_path):
     w, h, n = 24, 16, 3
     scene = _scene(tmp_path, w, h)
     big = mi_npr.render(_scene(tmp_path, w * n, h * n))
-    expected = ref_box(np.asarray(K.lines(big, line_width=float(n))), n)
+    expected = ref_box(np.asarray(K.lines(big, line_width=2.0 * n - 1)), n)
     got = antialiased_lines(scene, scene.sensors()[0], mi_npr.render(scene), n)
     assert np.mean(np.abs(got - expected) > 1e-6) < 0.02
 

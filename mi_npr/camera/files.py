@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ParameterError, check_input_file
+from ..errors import ParameterError, as_path, check_input_file, shown
 from .model import Camera
 
 #: The fields of a camera in a file, in the order :func:`to_json` writes them.
@@ -83,6 +83,8 @@ def from_data(data: Any, source: str = "cameras") -> list[Camera]:
 
 def from_json(text: str, source: str = "cameras") -> list[Camera]:
     """The cameras of a camera file's text (module docstring); errors name ``source``."""
+    if not isinstance(text, (str, bytes, bytearray)):
+        raise ParameterError(f"{source}: expected the text of a camera file, got {shown(text)}")
     try:
         data = json.loads(text)
     except ValueError as e:
@@ -94,7 +96,7 @@ def from_json(text: str, source: str = "cameras") -> list[Camera]:
 
 def read_cameras(path: str | os.PathLike[str]) -> list[Camera]:
     """The cameras of the camera file ``path`` (module docstring)."""
-    name = os.fspath(path)
+    name = os.fspath(as_path(path, "camera file"))
     check_input_file(name, ParameterError)
     try:
         with open(name, encoding="utf-8") as f:

@@ -39,10 +39,10 @@ from typing import Any
 import mitsuba as mi
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, shown
 from ..params import MAX_VIEWS
 from ..scene import load_scene, sensor_of, shape_bbox
-from .model import Camera, nearest_axis, orthogonal_up, rotate, view_frame
+from .model import Camera, angle_of, nearest_axis, orthogonal_up, rotate, vectors, view_frame
 from .sensor import camera_of
 
 SceneLike = str | os.PathLike[str] | mi.Scene
@@ -56,10 +56,14 @@ FLAT = 1e-3
 HUGE = 4.0
 
 
-def objects_that_matter(scene: mi.Scene) -> list[mi.Shape]:
+def objects_that_matter(
+    scene: mi.Scene, shapes: Sequence[mi.Shape] | None = None
+) -> list[mi.Shape]:
     """The shapes a view is framed on (module docstring): all but emitters' shapes, flat
-    shapes and shapes far larger than the rest; all of them when that leaves none."""
-    shapes = list(scene.shapes())
+    shapes and shapes far larger than the rest; all of them when that leaves none. Chosen
+    among ``shapes`` when given (the scene's shapes but those a user ignores): the one rule
+    for every camera placed around a scene (orbit, sphere, best view, exploration paths)."""
+    shapes = list(scene.shapes()) if shapes is None else list(shapes)
     boxes = [shape_bbox(s) for s in shapes]
     ext = [np.asarray(b[1] - b[0], np.float64) for b in boxes]
     keep = [
@@ -111,6 +115,18 @@ def bounding_sphere(
 def fit_distance(radius: float, fov: float, size: tuple[int, int]) -> float:
     """The distance from which a ``fov`` degree, ``size = (W, H)`` camera sees a sphere of
     ``radius`` whole (module docstring); 1 for a sphere of radius 0."""
+    radius, fov = angle_of("radius", radius), angle_of("fov", fov)
+    if radius < 0:
+        raise ParameterError(f"radius = {radius!r}: must be >= 0")
+    if not 0 < fov < 180:
+        raise ParameterError(f"fov = {fov!r}: must be in (0, 180) degrees")
+    try:
+        w, h = (angle_of("size", x) for x in size)
+    except (TypeError, ValueError):
+        raise ParameterError(f"size = {shown(size)}: expected (width, height)") from None
+    if not (w >= 1 and h >= 1):
+        raise ParameterError(f"size = {shown(size)}: width and height must be >= 1")
+    size = (w, h)
     tx = math.tan(math.radians(fov) / 2.0)
     half = min(math.atan(tx), math.atan(tx * size[1] / size[0]))
     return radius / math.sin(half) if radius > 0 else 1.0
@@ -149,9 +165,9 @@ def orbit(
         c = bounding_sphere(s)[0]
         c = c if np.all(np.isfinite(c)) else np.zeros(3)  # an unbounded scene: the origin
     else:
-        c = np.asarray(target, np.float64).reshape(-1)
-        if c.shape != (3,) or not np.all(np.isfinite(c)):
-            raise ParameterError(f"target = {target!r}: expected 3 finite numbers")
+        c = vectors("target", target).reshape(-1)
+        if c.shape != (3,):
+            raise ParameterError(f"target = {shown(target)}: expected 3 finite numbers")
     arm = np.asarray(start.origin) - c
     if np.linalg.norm(np.cross(arm, up)) <= 1e-9 * np.linalg.norm(arm):
         raise ParameterError(
@@ -189,7 +205,10 @@ def rotation_y_to(up: Any) -> np.ndarray:
     """The 3x3 rotation taking +y onto the direction ``up`` (the smallest; a half turn about
     +x for -y)."""
     y = np.array([0.0, 1.0, 0.0])
-    u = np.asarray(up, np.float64) / np.linalg.norm(up)
+    u = vectors("up", up, nonzero=True)
+    if u.shape != (3,):
+        raise ParameterError(f"up = {shown(up)}: expected one vector of 3 numbers")
+    u = u / np.linalg.norm(u)
     v = np.cross(y, u)
     c = float(y @ u)
     if np.linalg.norm(v) < 1e-12:
@@ -202,6 +221,8 @@ def sphere_directions(n: int, up: Any = (0.0, 1.0, 0.0), upper: bool = True) -> 
     """``n`` Fibonacci-lattice unit vectors with the pole on ``up``, only above its equator
     with ``upper`` (module docstring), float64 (n, 3)."""
     n = _count("sphere", n)
+    if not isinstance(upper, (bool, np.bool_)):
+        raise ParameterError(f"upper = {shown(upper)}: expected True or False")
     if upper:  # the lattice of 2n points is symmetric: its n points with y > 0 are a half
         d = fibonacci_sphere(2 * n)
         d = d[d[:, 1] > 0][:n]
@@ -215,8 +236,13 @@ def on_sphere(
 ) -> list[Camera]:
     """Cameras at ``centre + radius * directions`` (unit, (n, 3)) looking at ``centre``, up
     from :func:`~mi_npr.camera.view_frame` with ``up`` preferred."""
-    c = np.asarray(centre, np.float64).reshape(3)
-    d = np.asarray(directions, np.float64).reshape(-1, 3)
+    c = vectors("centre", centre).reshape(-1)
+    if c.shape != (3,):
+        raise ParameterError(f"centre = {shown(centre)}: expected 3 finite numbers")
+    d = vectors("directions", directions, nonzero=True).reshape(-1, 3)
+    radius = angle_of("radius", radius)
+    if radius <= 0:
+        raise ParameterError(f"radius = {radius!r}: must be > 0")
     origins = c + radius * (d / np.linalg.norm(d, axis=-1, keepdims=True))
     _, _, ups = view_frame(origins, c, up)
     return [Camera(o, c, u, fov) for o, u in zip(origins, ups, strict=True)]

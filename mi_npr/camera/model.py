@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, shown
 
 Vec3 = tuple[float, float, float]
 
@@ -56,9 +56,41 @@ def _vec3(where: str, name: str, value: Any) -> Vec3:
         v = []
     if len(v) != 3 or not all(math.isfinite(x) and abs(x) <= MAX_COORDINATE for x in v):
         raise ParameterError(
-            f"{where}: {name} = {value!r}: expected 3 finite numbers (float32: |x| <= 3.4e38)"
+            f"{where}: {name} = {shown(value)}: expected 3 finite numbers (float32: |x| <= 3.4e38)"
         )
     return (v[0] + 0.0, v[1] + 0.0, v[2] + 0.0)  # + 0.0: no -0.0
+
+
+def vectors(name: str, value: Any, nonzero: bool = False) -> np.ndarray:
+    """``value`` as a float64 array of 3-vectors, shape ``(..., 3)``, or :class:`ParameterError`
+    naming ``name``: the vector helpers below take points and directions from users, and a
+    string, NaN, a wrong shape or (with ``nonzero``) a zero vector is no direction."""
+    try:
+        if isinstance(value, (str, bytes)) or value is None:
+            raise ValueError
+        v = np.asarray(value, np.float64)
+    except (TypeError, ValueError, OverflowError):
+        v = np.zeros((0,))
+    if v.ndim == 0 or v.shape[-1] != 3 or v.size == 0 or not np.all(np.isfinite(v)):
+        raise ParameterError(f"{name} = {shown(value)}: expected 3 finite numbers (or rows of 3)")
+    if nonzero and np.any(np.linalg.norm(v, axis=-1) == 0):
+        raise ParameterError(f"{name} = {shown(value)}: a direction must not be zero")
+    return v
+
+
+def vector(name: str, value: Any, nonzero: bool = False) -> np.ndarray:
+    """One 3-vector (shape ``(3,)``) of :func:`vectors`."""
+    v = vectors(name, value, nonzero)
+    if v.shape != (3,):
+        raise ParameterError(f"{name} = {shown(value)}: expected one vector of 3 numbers")
+    return v
+
+
+def angle_of(name: str, value: Any) -> float:
+    """``value`` as a finite float, or :class:`ParameterError` naming ``name``."""
+    if not _number(value) or not math.isfinite(value):
+        raise ParameterError(f"{name} = {shown(value)}: expected a finite number")
+    return float(value)
 
 
 def parallel(direction: Any, up: Any) -> bool:
@@ -172,7 +204,9 @@ def nearest_axis(v: Any) -> np.ndarray:
     >>> nearest_axis([0.1, -0.2, -0.9])
     array([ 0.,  0., -1.])
     """
-    v = np.asarray(v, np.float64).reshape(3)
+    v = vectors("v", v, nonzero=True).reshape(-1)
+    if v.shape != (3,):
+        raise ParameterError(f"v = {shown(v)}: expected one vector of 3 numbers")
     i = int(np.argmax(np.abs(v)))
     axis = np.zeros(3)
     axis[i] = 1.0 if v[i] >= 0 else -1.0
@@ -189,15 +223,20 @@ def view_frame(
     (``|f . up| > 0.99``), the world axis least aligned with the view direction is used
     instead, so the frame never degenerates. The returned ``up`` is orthogonal to ``forward``.
     """
-    o = np.asarray(origin, np.float64)
-    t = np.broadcast_to(np.asarray(target, np.float64), o.shape)
+    o = vectors("origin", origin)
+    t = vectors("target", target)
+    if np.broadcast_shapes(o.shape, t.shape) != o.shape:
+        raise ParameterError(f"target = {shown(target)}: one per origin {o.shape} or one for all")
+    t = np.broadcast_to(t, o.shape)
     f = t - o
     norm = np.linalg.norm(f, axis=-1, keepdims=True)
     if np.any(norm <= 0):
         raise ParameterError("origin and target coincide: no view direction")
     f = f / norm
-    u0 = np.array([0.0, 1.0, 0.0]) if up is None else np.asarray(up, np.float64)
-    u0 = np.broadcast_to(u0 / np.linalg.norm(u0), f.shape)
+    u0 = np.array([0.0, 1.0, 0.0]) if up is None else vectors("up", up, nonzero=True)
+    if np.broadcast_shapes(u0.shape, f.shape) != f.shape:
+        raise ParameterError(f"up = {shown(up)}: one per origin {o.shape} or one for all")
+    u0 = np.broadcast_to(u0 / np.linalg.norm(u0, axis=-1, keepdims=True), f.shape)
     bad = np.abs((f * u0).sum(-1)) > 0.99
     axis = np.eye(3)[np.argmin(np.abs(f), axis=-1)]
     u = np.where(bad[..., None], axis, u0)
@@ -209,7 +248,10 @@ def view_frame(
 def rotate(v: Any, axis: Any, angle: float) -> np.ndarray:
     """Rodrigues' rotation of ``v`` about the unit ``axis`` by ``angle`` radians:
     ``v cos a + (axis x v) sin a + axis (axis . v)(1 - cos a)``."""
-    v, axis = np.asarray(v, np.float64), np.asarray(axis, np.float64)
+    v, axis = vectors("v", v), vectors("axis", axis, nonzero=True)
+    if axis.shape != (3,):
+        raise ParameterError(f"axis = {shown(axis)}: expected one vector of 3 numbers")
+    angle = angle_of("angle", angle)
     c, s = math.cos(angle), math.sin(angle)
     return v * c + np.cross(axis, v) * s + axis * np.dot(axis, v) * (1 - c)
 
@@ -217,6 +259,11 @@ def rotate(v: Any, axis: Any, angle: float) -> np.ndarray:
 def orthogonal_up(forward: Any, up: Any) -> np.ndarray:
     """``up`` made orthogonal to the unit ``forward`` and unit length (Gram-Schmidt): the image's
     up direction of ``lookat(o, o + forward, up)``; ``up`` must not be parallel to ``forward``."""
-    f, u = np.asarray(forward, np.float64), np.asarray(up, np.float64)
+    f, u = vectors("forward", forward, nonzero=True), vectors("up", up, nonzero=True)
+    if f.shape != (3,) or u.shape != (3,):
+        raise ParameterError("forward and up: expected one vector of 3 numbers each")
     u = u - np.dot(u, f) * f
-    return u / np.linalg.norm(u)
+    n = np.linalg.norm(u)
+    if n <= 1e-12 * np.linalg.norm(f):
+        raise ParameterError(f"up = {u.tolist()} lies along forward = {f.tolist()} (parallel)")
+    return u / n

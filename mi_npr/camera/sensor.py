@@ -28,8 +28,9 @@ from typing import Any
 import mitsuba as mi
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, shown
 from ..gbuffer import Projection
+from ..scene import check_resolution
 from .model import CAMERA_ID, Camera, nearest_axis, parallel
 
 #: Horizontal field of view (degrees) of a camera where neither it nor its sensor has one.
@@ -180,8 +181,14 @@ def sensor_xml(
     that one sensor), ``<include filename="..."/>`` adds its sensor to a scene, and the
     ``<sensor>`` element can be pasted into a scene in place of its own.
     """
-    if not CAMERA_ID.match(name):
-        raise ParameterError(f"sensor id {name!r}: expected a file stem")
+    if not isinstance(name, str) or not CAMERA_ID.match(name):
+        raise ParameterError(f"sensor id {shown(name)}: expected a file stem")
+    if not isinstance(comment, str) or "--" in comment:
+        raise ParameterError(f"comment = {shown(comment)}: expected text without '--'")
+    if size is not None:
+        size = check_resolution(size)
+        if size is None or None in size:
+            raise ParameterError("size: expected (width, height), both given")
     c = resolve(camera, like)
     if like is None:
         w, h = size if size is not None else (DEFAULT_WIDTH, DEFAULT_WIDTH)

@@ -27,7 +27,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from ..errors import OutputError, one_line
+from ..errors import OutputError, as_path, one_line
 
 
 def _umask() -> int:
@@ -43,9 +43,9 @@ _FILE_MODE = 0o666 & ~_umask()
 def check_writable_dir(directory: str | os.PathLike[str], create: bool = False) -> Path:
     """``directory`` as a Path, created if asked; :class:`OutputError` if it cannot be written
     (an empty name too: it is no folder, not the current one)."""
-    if not os.fspath(directory):
+    if isinstance(directory, str) and not directory:
         raise OutputError("output directory '': an empty name (give a folder, e.g. -o out)")
-    d = Path(directory)
+    d = as_path(directory, "output directory", OutputError)
     if create:
         try:
             d.mkdir(parents=True, exist_ok=True)

@@ -52,7 +52,7 @@ import OpenEXR
 
 from .. import layers as L
 from .._version import __version__
-from ..errors import InputError, NprError, OutputError, check_input_file
+from ..errors import InputError, NprError, OutputError, as_path, check_input_file
 from ..gbuffer import GBuffer, Projection
 from ..projection import world_to_camera, world_to_ndc
 from ._atomic import atomic_output
@@ -123,7 +123,7 @@ def write_exr(path: str | os.PathLike[str], gbuffer: GBuffer) -> Path:
     """Write every layer of ``gbuffer`` to ``path`` (atomically). Returns the path."""
     if not isinstance(gbuffer, GBuffer):
         raise TypeError(f"write_exr expects a GBuffer, got {type(gbuffer).__name__}")
-    target = Path(path)
+    target = as_path(path, "output file")
     layers = {k: gbuffer.numpy(k) for k in gbuffer.names}
     channels = {k: _file_layer(target, k, v) for k, v in layers.items()}
     header = _header(gbuffer)

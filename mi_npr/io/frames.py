@@ -18,7 +18,7 @@ import numpy as np
 from PIL import Image
 
 from ..coherence import figure
-from ..errors import OutputError, ParameterError
+from ..errors import OutputError, ParameterError, as_path, shown
 from ._atomic import atomic_output
 from .png import to_rgb8
 from .text import write_text
@@ -29,14 +29,17 @@ FORMATS = ("mp4", "gif")
 
 def check_format(fmt: str) -> str:
     """``fmt`` if it is one of :data:`FORMATS`, else a :class:`ParameterError`."""
-    if fmt not in FORMATS:
-        raise ParameterError(f"video format {fmt!r}: expected one of {', '.join(FORMATS)}")
+    if not isinstance(fmt, str) or fmt not in FORMATS:
+        raise ParameterError(f"video format {shown(fmt)}: expected one of {', '.join(FORMATS)}")
     return fmt
 
 
 def frame_image(image: np.ndarray) -> np.ndarray:
     """A linear float (H, W, 3) picture as the sRGB uint8 frame of a video."""
-    return to_rgb8(np.asarray(image)[..., :3])
+    a = np.asarray(image) if isinstance(image, np.ndarray) else None
+    if a is None or a.ndim != 3 or a.shape[2] < 3 or a.dtype.kind not in "fiu":
+        raise ParameterError(f"image = {shown(image)}: expected an (H, W, 3) array of numbers")
+    return to_rgb8(a[..., :3])
 
 
 def _even(a: np.ndarray) -> np.ndarray:
@@ -50,7 +53,7 @@ def write_video(path: str | os.PathLike[str], frames: Iterable[np.ndarray], fps:
     format). ``mp4`` needs the ``imageio-ffmpeg`` package (a dependency of mi-npr); its frames
     are streamed to ffmpeg one at a time (``frames`` may be a generator reading them from
     disk), while a ``gif`` holds them all (Pillow's encoder needs every frame)."""
-    target = Path(path)
+    target = as_path(path, "output file")
     fmt = check_format(target.suffix.lstrip("."))
     if isinstance(fps, bool) or not isinstance(fps, int) or not 1 <= fps <= 240:
         raise ParameterError(f"fps = {fps!r}: must be in [1, 240]")
@@ -118,7 +121,7 @@ def write_coherence(
     :func:`mi_npr.coherence.popping` result) and, with matplotlib (the ``plots`` extra), its
     plot ``coherence.png``; without matplotlib the plot is skipped. Returns the paths."""
 
-    out = Path(outdir)
+    out = as_path(outdir, "output directory")
     data = dict(coherence)
     if curves:
         data["variants"] = curves

@@ -19,10 +19,9 @@ import os
 import stat
 import warnings
 from collections.abc import Iterator, Mapping
-from pathlib import Path
 from typing import Any
 
-from ..errors import NprWarning, OutputError, ParameterError
+from ..errors import NprWarning, OutputError, ParameterError, as_path
 from ..scene import scene_files
 
 MANIFEST = "manifest.jsonl"
@@ -91,6 +90,7 @@ def _open_regular(path: str | os.PathLike[str], flags: int, what: str) -> int:
 def check_manifest(path: str | os.PathLike[str]) -> None:
     """:class:`OutputError` when ``path`` exists and is not a regular file (checked before a
     batch renders anything, so no job's work is lost to an unwritable manifest)."""
+    path = as_path(path, "manifest")
     if os.path.lexists(path):
         try:
             mode = os.stat(path).st_mode
@@ -151,7 +151,7 @@ def scene_hash(path: str | os.PathLike[str], defines: Mapping[str, Any] | None =
     (:func:`mi_npr.scene.scene_files`: meshes, textures, includes, ``$name`` resolved), in
     document order, each with its name relative to the scene: ``sha256:<hex>``. A referenced
     file that does not exist counts by its name only."""
-    xml = Path(path).resolve()
+    xml = as_path(path, "scene file").resolve()
     h = hashlib.sha256()
     try:
         files = [xml, *scene_files(xml, defines)]

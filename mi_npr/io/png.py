@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-from ..errors import ParameterError
+from ..errors import ParameterError, as_path, shown
 from ..params import MAX_RES
 from ._atomic import atomic_output
 
@@ -33,7 +33,9 @@ def linear_to_srgb(x: np.ndarray) -> np.ndarray:
 
 def to_rgb8(image: np.ndarray, linear: bool = True) -> np.ndarray:
     """A float image (H, W[, C]) in [0, 1] as uint8, sRGB-encoded when ``linear``."""
-    a = np.asarray(image)
+    a = np.asarray(image) if isinstance(image, (np.ndarray, list, tuple)) else np.zeros(0, object)
+    if a.dtype.kind not in "biuf" or a.ndim not in (2, 3) or a.size == 0:
+        raise ParameterError(f"image = {shown(image)}: expected an (H, W) or (H, W, C) array")
     if a.dtype == np.uint8:
         return a
     # NaN is black, +inf white, -inf black (a NaN cast to uint8 is undefined).
@@ -62,7 +64,7 @@ def write_png(path: str | os.PathLike[str], image: np.ndarray, linear: bool = Tr
     if a.ndim == 3 and a.shape[-1] == 1:
         a = a[..., 0]
     rgb8 = to_rgb8(a, linear)
-    target = Path(path)
+    target = as_path(path, "output file")
     with atomic_output(target) as tmp:
         save_png(rgb8, tmp)
     return target

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ..errors import ParameterError, as_path, shown
 from ._atomic import atomic_output
 
 
@@ -22,7 +23,9 @@ def quoteattr(value: str) -> str:
 
 def write_text(path: str | os.PathLike[str], text: str) -> Path:
     """Write ``text`` (UTF-8) to ``path`` through a temporary file; returns the path."""
-    target = Path(path)
+    target = as_path(path, "output file")
+    if not isinstance(text, str):
+        raise ParameterError(f"text = {shown(text)}: expected a str")
     with atomic_output(target) as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
     return target

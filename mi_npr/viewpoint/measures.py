@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, shown
 
 TWO_PI = 2.0 * math.pi
 
@@ -232,6 +232,6 @@ MEASURES: dict[str, Callable[[np.ndarray, Topology | None], np.ndarray]] = {
 
 
 def check_measure(measure: str) -> str:
-    if measure not in MEASURES:
-        raise ParameterError(f"measure = {measure!r}: expected one of {', '.join(MEASURES)}")
+    if not isinstance(measure, str) or measure not in MEASURES:
+        raise ParameterError(f"measure = {shown(measure)}: expected one of {', '.join(MEASURES)}")
     return measure

@@ -27,19 +27,20 @@ rated (a level splits only the triangles whose midpoints still fit). Above the g
 image covered (:data:`INSIDE_BELOW`) and one sees more than a tenth of it filled with the backs
 of one-sided faces (:data:`CLOSED_ABOVE`): a room closed by one-sided walls shows only their backs
 to the outside, and what leaks through its seams, the viewpoints move inside the scene, onto
-the sphere of radius ``inner`` (half the smallest half-extent of the framed bounding box) around
-the target, and the search starts again there with what is left of the budget. Its result is
-returned if it beats the outside (a thin object, all back faces inside, stays seen from
-outside); its ``evaluations`` then leave out the 13 or 18 rated outside. Only with the default
-``target`` and ``radius``.
+the sphere of radius ``inner`` (half the smallest half-extent of the box of every shape not
+ignored) around that box's centre, and the search starts again there with what is left of the
+budget. Its result is returned if it beats the outside (a thin object, all back faces inside,
+stays seen from outside); its ``evaluations`` then leave out the 13 or 18 rated outside. Only
+with the default ``target`` and ``radius``.
 
 Either way the result is the best viewpoint evaluated. Ties go to the first candidate in the
 order above (+x, -x, +y, -y, +z, -z; octants in the order of :data:`OCTANTS`).
 
 Defaults, where the paper leaves them open:
 
-- ``target``: the centre of the scene's bounding sphere (Mitsuba's ``bbox().bounding_sphere()``,
-  :func:`mi_npr.camera.bounding_sphere`).
+- ``target``: the centre of the bounding sphere of the objects that matter
+  (:func:`mi_npr.camera.objects_that_matter`, :func:`mi_npr.camera.bounding_sphere`): the
+  framing of orbits and spheres of views, so a floor, a backdrop or a light never sets it.
 - ``fov``: the horizontal field of view of the scene's sensor (``sensor``-th,
   :data:`mi_npr.camera.DEFAULT_FOV` = 45 degrees if it has none, e.g. an orthographic one); the
   ID buffers have the sensor film's aspect ratio and ``res`` pixels along its longer side, so
@@ -52,7 +53,7 @@ Defaults, where the paper leaves them open:
   sphere's centre, ``R`` grows by that distance, so the scene still fits.
 - ``ignore``: names of objects (a floor, a backdrop) whose pixels count as background: they
   still hide what is behind them, but add nothing to any measure, their polygons leave ``n``
-  (eq. 1), and the default ``target`` and ``radius`` frame the other objects only. Large flat
+  (eq. 1), and the objects that matter are chosen among the others only. Large flat
   polygons otherwise decide most searches (a floor seen from straight above or below fills the
   image with one or two faces).
 - ``up``: the scene's up axis (:func:`mi_npr.camera.up_axis`: the world axis closest to the
@@ -82,11 +83,12 @@ from ..camera import (
     fibonacci_sphere,
     fit_distance,
     nearest_axis,
+    objects_that_matter,
     view_frame,
 )
 from ..errors import ParameterError, SceneError
 from ..memory import check_images
-from ..params import MAX_RES, MAX_VIEW_DEPTH, Param, check_arg, entry, integer_range
+from ..params import MAX_RES, MAX_VIEW_DEPTH, Param, check_arg, entry, integer_range, names
 from ..scene import load_scene, sensor_of
 from . import idbuffer
 from .measures import MEASURES, SparseAreas, Topology, check_measure
@@ -132,6 +134,9 @@ class Viewing:
     #: radius of the sphere of viewpoints inside the scene, tried when nothing can be seen from
     #: outside (0: never; module docstring)
     inner: float = 0.0
+    #: centre of that inside sphere: the middle of every shape not ignored (a room's), not the
+    #: target framed on the objects that matter (``None``: the target)
+    inner_target: np.ndarray | None = field(default=None, repr=False)
 
     def origins(self, directions: np.ndarray) -> np.ndarray:
         d = np.asarray(directions, np.float64).reshape(-1, 3)
@@ -178,7 +183,7 @@ class Viewing:
 
 def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray | None:
     """The area-table columns that stay when the objects named ``ignore`` are ignored."""
-    if not ignore:
+    if not names("ignore", ignore):
         return None
     by_name = {v: k for k, v in polys.table.names.items()}
     unknown = [n for n in ignore if n not in by_name]
@@ -196,17 +201,19 @@ def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray
 
 def _bounding_sphere(
     scene: mi.Scene, polys: idbuffer.Polygons, ignore: Sequence[str] = ()
-) -> tuple[np.ndarray, float, float]:
-    """The scene's bounding sphere, or that of the objects not in ``ignore`` (a floor left out
-    of the measures is left out of the framing too), and the radius of the sphere of viewpoints
-    inside it (:func:`mi_npr.camera.bounding_sphere`)."""
-    # Best view frames every shape but the ignored ones (a room's walls make its inside), not
-    # only the objects that matter of the camera framing.
+) -> tuple[np.ndarray, float, np.ndarray, float]:
+    """``(centre, R, whole, inner)``: the bounding sphere of the objects that matter among
+    those not in ``ignore`` (:func:`mi_npr.camera.objects_that_matter`: a floor, a backdrop or
+    a light does not set the distance, as for orbits and spheres of views; an ignored object
+    neither), and the centre and the inner radius of the box of every shape not ignored (a
+    closed room's walls make its inside; :func:`mi_npr.camera.bounding_sphere`)."""
     kept = [s for k, s in polys.table.shapes.items() if polys.table.names[k] not in ignore]
-    c, r, inner = bounding_sphere(scene, kept or list(scene.shapes()))
+    kept = kept or list(scene.shapes())
+    c, r, _ = bounding_sphere(scene, objects_that_matter(scene, kept))
+    whole, _, inner = bounding_sphere(scene, kept)
     if not (np.all(np.isfinite(c)) and math.isfinite(r)):
         raise SceneError("the scene's bounding box is not finite: give target and radius")
-    return c, r, inner
+    return c, r, whole, inner
 
 
 def viewing(
@@ -236,9 +243,9 @@ def viewing(
     size = idbuffer.image_size(res, aspect)
     check_images(size[0], size[1], 12, "ID buffers")  # the largest batch: 12 first-level midpoints
     polys = idbuffer.polygons(scene)
-    ignore = (ignore,) if isinstance(ignore, str) else tuple(ignore)
+    ignore = (ignore,) if isinstance(ignore, str) else names("ignore", ignore)
     keep = _kept_columns(polys, ignore)  # checks the names first
-    centre, R, inner = _bounding_sphere(scene, polys, ignore)
+    centre, R, whole, inner = _bounding_sphere(scene, polys, ignore)
     if target is not None or radius is not None:
         inner = 0.0  # the user's sphere: no other
     if target is None:
@@ -256,7 +263,7 @@ def viewing(
         or not (math.isfinite(radius) and radius > 0)
     ):
         raise ParameterError(f"radius = {radius!r}: must be a positive number")
-    return Viewing(tgt, float(radius), fov, size, up, polys, keep, bool(allow_below), inner)
+    return Viewing(tgt, float(radius), fov, size, up, polys, keep, bool(allow_below), inner, whole)
 
 
 def qualities(
@@ -292,13 +299,14 @@ def quality(
 
     ``measure``: ``"pb"`` (eq. 1), ``"curvature"`` (eq. 2) or ``"entropy"`` (eq. 3), computed
     from the areas of an ``res``-pixel ID buffer (see :mod:`mi_npr.viewpoint.measures` for the
-    exact definitions). ``target`` defaults to the centre of the scene's bounding sphere; ``fov``
-    and the image's aspect ratio come from the scene's sensor. A viewpoint that sees nothing has
-    quality 0. Objects named in ``ignore`` count as background (module docstring).
+    exact definitions). ``target`` defaults to the centre of the bounding sphere of the objects
+    that matter (module docstring); ``fov`` and the image's aspect ratio come from the scene's
+    sensor. A viewpoint that sees nothing has quality 0. Objects named in ``ignore`` count as
+    background (module docstring).
 
     >>> from mi_npr.viewpoint import quality
     >>> round(quality("scenes_xml/scene3.xml", [4, 3, -4], measure="pb", res=32), 2)
-    1.19
+    1.18
     """
     q = qualities(scene, [origin], target, measure, res, fov=fov, sensor=sensor, ignore=ignore)
     return float(q[0])
@@ -502,7 +510,8 @@ def search(
         if level == 0 and not paper and view.inner > 0 and closed and left >= len(q):
             # Only backs seen from outside (a closed room of one-sided walls, and what leaks
             # through its seams): look from inside.
-            inside = replace(view, radius=view.inner, inner=0.0)
+            centre = view.target if view.inner_target is None else view.inner_target
+            inside = replace(view, target=centre, radius=view.inner, inner=0.0)
             bv = search(scene, inside, measure, depth, beam, left)
             if bv.quality > max(q):  # not a thin object that is all back faces inside
                 return bv
