@@ -246,9 +246,6 @@ PENDING = {
     "mi_npr.dataset.check_mesh",
     "mi_npr.dataset.find_meshes",
     "mi_npr.dataset.make_dataset",
-    "mi_npr.io.svg.svg_document",
-    "mi_npr.io.svg.write_contour_outputs",
-    "mi_npr.io.svg.write_svg",
     "mi_npr.strokes.extract.extract_strokes",
 }
 

@@ -66,7 +66,7 @@ from typing import Any
 import numpy as np
 
 from ..compose import raw_beauty
-from ..errors import ParameterError
+from ..errors import ParameterError, as_path
 from ..gbuffer import GBuffer
 from ..params import MAX_RES, Param, check_arg, integer_range, real_range, rgb_color
 from ..strokes.model import KINDS, Stroke, Strokes
@@ -86,6 +86,9 @@ _WIDTH = Param("width", int, 1, "image width in pixels", integer_range(1, MAX_RE
 _HEIGHT = Param("height", int, 1, "image height in pixels", integer_range(1, MAX_RES))
 _COLOR = Param("color", tuple, (1.0, 0.0, 0.0), "linear RGB of the contours", rgb_color)
 _STROKE = Param("stroke_width", float, 1.0, "line width", real_range(0.0, 1e4, open_lo=True))
+_TITLE = Param("title", str, None, "the SVG's <title>")
+_HREF = Param("beauty_href", str, None, "file name or URL of the linked beauty")
+_STEM = Param("stem", str, None, "the output files' stem", lambda v: None if v else "is empty")
 
 
 def _hex(color: Sequence[float]) -> str:
@@ -307,8 +310,12 @@ def svg_document(
     ``color`` is linear RGB (written as sRGB hex)."""
     w = check_arg("write_svg", _WIDTH, width)
     h = check_arg("write_svg", _HEIGHT, height)
-    color = check_arg("write_svg", _COLOR, color)
-    stroke_width = check_arg("write_svg", _STROKE, stroke_width)
+    color = check_arg("write_svg", _COLOR, _COLOR.default if color is None else color)
+    stroke_width = check_arg(
+        "write_svg", _STROKE, _STROKE.default if stroke_width is None else stroke_width
+    )
+    title = check_arg("write_svg", _TITLE, title)
+    beauty_href = check_arg("write_svg", _HREF, beauty_href)
     if beauty is not None and beauty_href is not None:
         raise ParameterError("SVG beauty: give the image (embed) or beauty_href (link), not both")
     groups: dict[int, tuple[str, list[str]]] = {}
@@ -407,8 +414,8 @@ def write_svg(
 ) -> Path:
     """Write :func:`svg_document` (same arguments and keyword ``options``) to ``path``
     (atomically). Returns the path."""
+    target = as_path(path, "write_svg: path")
     text = svg_document(contours, width, height, **options)
-    target = Path(path)
     with atomic_output(target) as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
     return target
@@ -439,6 +446,8 @@ def write_contour_outputs(
 
     if svg_image not in SVG_IMAGE:
         raise ParameterError(f"svg_image = {svg_image!r}: must be one of {', '.join(SVG_IMAGE)}")
+    if stem is None or check_arg("write_contour_outputs", _STEM, stem) is None:
+        raise ParameterError("write_contour_outputs: parameter 'stem' = None: expected a string")
     if not beauty_in_svg:
         svg_image = "none"
     d = check_writable_dir(outdir, create=True)
