@@ -134,6 +134,15 @@ def _frame(o: Any, t: Any, up: Any, fov: Any) -> Pinhole:
     return Pinhole.look_at(o, t, up, fov)
 
 
+def _camera(opt: Any, values: dict[str, Any], params: Sequence[str]) -> Camera:
+    """The optimiser's camera as a :class:`Camera` (``up`` made orthogonal to the view)."""
+    v = {k: np.asarray(opt[k] if k in params else values[k], np.float64).ravel() for k in values}
+    o, t = v["origin"], v["target"]
+    f = (t - o) / np.linalg.norm(t - o)
+    up = v["up"] - f * float(v["up"] @ f)
+    return Camera(tuple(o), tuple(t), tuple(up / np.linalg.norm(up)), float(v["fov"][0]))
+
+
 def _sensor_start(scene: mi.Scene, sensor: mi.Sensor) -> Camera:
     """The sensor's camera with its target on the view line across from the centre of the
     scene's objects (a sensor keeps no target, and the distance to it scales the steps)."""
@@ -157,7 +166,7 @@ def fit_camera(
     samples: int = 2,
     scales: Sequence[float] = SCALES,
     line_options: dict[str, Any] | None = None,
-    on_step: Callable[[int, float], None] | None = None,
+    on_step: Callable[[int, float, Camera], None] | None = None,
 ) -> CameraFit:
     """The camera that sees ``scene``'s lines as ``drawing`` (module docstring).
 
@@ -167,7 +176,7 @@ def fit_camera(
     it); ``params``: which of :data:`CAMERA_PARAMS` to optimise (a list, or names joined by
     commas); ``samples``: the lines' samples per pixel along each axis; ``line_options``:
     other :func:`~mi_npr.ad.soft_lines` options (:data:`LINE_OPTIONS`);
-    ``on_step(i, loss)`` is called after every step.
+    ``on_step(i, loss, camera)`` is called after every step with the camera so far.
     """
     require_ad("fit_camera")
     params = _names("fit_camera", FIT_PARAMS, params)
@@ -222,15 +231,8 @@ def fit_camera(
         value = float(loss[0])
         result.loss.append(value)
         if on_step is not None:
-            on_step(i, value)
-    final = {k: np.asarray(opt[k] if k in params else values[k]).ravel() for k in CAMERA_PARAMS}
-    o, t = final["origin"].astype(float), final["target"].astype(float)
-    f = (t - o) / np.linalg.norm(t - o)
-    up = final["up"].astype(float)
-    up = up - f * float(up @ f)
-    result.camera = Camera(
-        tuple(o), tuple(t), tuple(up / np.linalg.norm(up)), float(final["fov"][0])
-    )
+            on_step(i, value, _camera(opt, values, params))
+    result.camera = _camera(opt, values, params)
     result.seconds = time.perf_counter() - t0
     return result
 

@@ -64,6 +64,8 @@ from ..errors import ParameterError
 from ..raycast import film_size, require_jit
 from ..scene import object_table
 
+Taps = list[tuple[int, float]]
+
 #: Dimension of the per-object id feature.
 ID_DIMS = 4
 #: Cosine of the normal angle above which two neighbouring samples are on two sides of a crease.
@@ -154,30 +156,163 @@ def _taps(n: int, R: int, sigma: float) -> list[tuple[int, float]]:
     return [(k, v / sum(g)) for k, v in zip(ks, g, strict=True)]
 
 
-def _separable(
-    v: Any,
-    rows: int,
-    cols: int,
-    tx: list[tuple[int, float]],
-    ty: list[tuple[int, float]],
-    n: int,
-    R: int,
-    size: tuple[int, int],
-) -> Any:
-    """``sum_{kx, ky} wx wy v[(j + R) n + ky, (i + R) n + kx]`` for every pixel ``(i, j)``."""
-    w, h = size
+def _down(v: Any, rows: int, cols: int, w: int, taps: Taps, n: int, R: int) -> Any:
+    """``out[r, i] = sum_k w_k v[r, (i + R) n + k]``: a (rows, cols) array filtered and
+    decimated along its rows to (rows, w)."""
     idx = dr.arange(mi.Int32, rows * w)
     r, i = idx // w, idx % w
     acc = mi.Float(0.0)
-    for k, wt in tx:
+    for k, wt in taps:
         acc += wt * dr.gather(mi.Float, v, mi.UInt32(r * cols + (i + R) * n + k))
+    return acc
+
+
+def _down_t(g: Any, rows: int, cols: int, w: int, taps: Taps, n: int, R: int) -> Any:
+    """The transpose of :func:`_down` (its adjoint, for the backward pass) by gathers:
+    ``v[r, c] = sum_k w_k g[r, (c - k) / n - R]`` over the ``k`` that divide evenly."""
+    idx = dr.arange(mi.Int32, rows * cols)
+    r, c = idx // cols, idx % cols
+    acc = mi.Float(0.0)
+    for k, wt in taps:
+        q = c - k - R * n  # = i n for the output i that reads c through tap k
+        i = q // n
+        ok = (q >= 0) & (q % n == 0) & (i < w)
+        acc += dr.select(
+            ok, wt * dr.gather(mi.Float, g, mi.UInt32(r * w + dr.maximum(i, 0)), ok), 0.0
+        )
+    return acc
+
+
+def _transpose(v: Any, rows: int, cols: int) -> Any:
+    """A (rows, cols) array stored column by column: (cols, rows)."""
+    idx = dr.arange(mi.UInt32, rows * cols)
+    return dr.gather(mi.Float, v, (idx % rows) * cols + idx // rows)
+
+
+class _Separable(dr.CustomOp):
+    """:func:`_separable` with a backward pass of gathers: Dr.Jit would otherwise transpose
+    each of the filter's gathers into an atomic scatter-add, several times slower."""
+
+    def eval(self, v: Any, rows: int, cols: int, w: int, h: int, taps: Taps, n: int, R: int):
+        self.shape = (rows, cols, w, h, taps, n, R)
+        return _apply(v, *self.shape)
+
+    def forward(self) -> None:
+        self.set_grad_out(_apply(self.grad_in("v"), *self.shape))
+
+    def backward(self) -> None:
+        rows, cols, w, h, taps, n, R = self.shape
+        g = _transpose(self.grad_out(), h, w)  # (w, h): the y pass's transpose along rows
+        g = _down_t(g, w, rows, h, taps, n, R)  # (w, rows)
+        g = _transpose(g, w, rows)  # (rows, w)
+        self.set_grad_in("v", _down_t(g, rows, cols, w, taps, n, R))
+
+    def name(self) -> str:
+        return "separable filter"
+
+
+def _apply(v: Any, rows: int, cols: int, w: int, h: int, taps: Taps, n: int, R: int) -> Any:
+    acc = _down(v, rows, cols, w, taps, n, R)  # (rows, w)
     dr.eval(acc)
-    idx = dr.arange(mi.Int32, h * w)
-    j, i = idx // w, idx % w
-    out = mi.Float(0.0)
-    for k, wt in ty:
-        out += wt * dr.gather(mi.Float, acc, mi.UInt32(((j + R) * n + k) * w + i))
-    return out
+    acc = _transpose(acc, rows, w)  # (w, rows)
+    return _transpose(_down(acc, w, rows, h, taps, n, R), w, h)  # (h, w)
+
+
+def _separable(v: Any, rows: int, cols: int, taps: Taps, n: int, R: int, size: tuple[int, int]):
+    """``sum_{kx, ky} w_kx w_ky v[(j + R) n + ky, (i + R) n + kx]`` for every pixel ``(i, j)``
+    of a ``size = (W, H)`` image, from the (rows, cols) samples ``v``."""
+    w, h = size
+    return dr.custom(_Separable, v, rows, cols, w, h, taps, n, R)
+
+
+#: The four links of a sample: to its right, left, lower and upper neighbour.
+DIRECTIONS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+
+
+@dataclass
+class _Links:
+    """The sample grid's detached data that decides where its links cross a discontinuity."""
+
+    f: list[Any]  # the features, detached
+    oid: Any
+    valid: Any
+    z: Any
+    n: Any  # normals
+    rows: int
+    cols: int
+    jump: float  # the inverse-depth step that is a discontinuity
+    spp: int  # samples per pixel along an axis (1 / h)
+
+    def direction(self, dx: int, dy: int) -> tuple[Any, Any, Any, list[Any]]:
+        """For the link from each sample to its neighbour ``(dx, dy)``: the neighbour's index,
+        whether this sample is the front one, the weight ``m`` (``h^-1 / 2`` where the link is
+        a discontinuity, else 0) and ``f_front - f_back`` per feature."""
+        idx = dr.arange(mi.Int32, self.rows * self.cols)
+        col, row = idx % self.cols, idx // self.cols
+        inside = (col + dx >= 0) & (col + dx < self.cols) & (row + dy >= 0) & (row + dy < self.rows)
+        b = mi.UInt32(
+            dr.clip(row + dy, 0, self.rows - 1) * self.cols + dr.clip(col + dx, 0, self.cols - 1)
+        )
+        gb = lambda v, t=mi.Float: dr.gather(t, v, b)  # noqa: E731
+        vb = gb(self.valid, mi.Bool)
+        step = self.oid != gb(self.oid, mi.UInt32)
+        step |= dr.abs(self.f[ID_DIMS] - gb(self.f[ID_DIMS])) > self.jump
+        cos = sum(self.n[i] * gb(self.n[i]) for i in range(3))
+        step |= self.valid & vb & (cos < CREASE_COS)
+        front = self.z <= gb(self.z)
+        m = dr.select(inside & step & (self.valid | vb), 0.5 * self.spp, 0.0)
+        jumps = [dr.select(front, f - gb(f), gb(f) - f) for f in self.f]
+        return b, front, m, jumps
+
+
+class _Flux(dr.CustomOp):
+    """The boundary term (module docstring) of every feature at every sample: linear in the
+    samples' image velocities ``(ux, uy)``, with a backward pass of gathers (Dr.Jit's own would
+    be a scatter-add per link and feature)."""
+
+    def eval(self, ux: Any, uy: Any, links: _Links) -> list[Any]:
+        self.links = links
+        return self._apply(ux, uy)
+
+    def _apply(self, ux: Any, uy: Any) -> list[Any]:
+        out = [mi.Float(0.0) for _ in self.links.f]
+        for dx, dy in DIRECTIONS:
+            b, front, m, jumps = self.links.direction(dx, dy)
+            ue = (ux if dx else uy) * (dx + dy)  # u . e for e the unit step from here to there
+            u = dr.select(front, ue, -dr.gather(mi.Float, ue, b)) * m
+            out = [o + j * u for o, j in zip(out, jumps, strict=True)]
+        dr.eval(out)
+        return out
+
+    def forward(self) -> None:
+        self.set_grad_out(self._apply(self.grad_in("ux"), self.grad_in("uy")))
+
+    def backward(self) -> None:
+        g = self.grad_out()
+        lk = self.links
+        gx, gy = mi.Float(0.0), mi.Float(0.0)
+        idx = dr.arange(mi.Int32, lk.rows * lk.cols)
+        col, row = idx % lk.cols, idx // lk.cols
+        for dx, dy in DIRECTIONS:
+            _, front, m, jumps = lk.direction(dx, dy)
+            G = m * (dx + dy) * sum(j * gc for j, gc in zip(jumps, g, strict=True))
+            own = dr.select(front, G, 0.0)  # this sample is the front: its own velocity
+            other = dr.select(front, 0.0, -G)  # the neighbour is: its velocity, read there
+            dr.eval(own, other)
+            # the samples whose link in this direction ends here
+            sx, sy = col - dx, row - dy
+            ok = (sx >= 0) & (sx < lk.cols) & (sy >= 0) & (sy < lk.rows)
+            src = mi.UInt32(dr.clip(sy, 0, lk.rows - 1) * lk.cols + dr.clip(sx, 0, lk.cols - 1))
+            total = own + dr.gather(mi.Float, other, src, ok)
+            if dx:
+                gx += total
+            else:
+                gy += total
+        self.set_grad_in("ux", gx)
+        self.set_grad_in("uy", gy)
+
+    def name(self) -> str:
+        return "boundary flux"
 
 
 def _check(name: str, value: Any, ok: bool, rule: str) -> None:
@@ -254,30 +389,10 @@ def soft_lines(
     fd = [dr.detach(f) for f in feats]
     dr.eval(feats, ux, uy, oid, valid)  # smaller kernels compile much faster than one
     zd, nd = dr.detach(z), dr.detach(nrm)
-    jump_d = 0.05 * depth_weight
 
-    col, row = mi.Int32(idx % cols), mi.Int32(idx // cols)
-    flux = [mi.Float(0.0) for _ in fd]
-    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):  # the link from each sample to a neighbour
-        inside = (col + dx >= 0) & (col + dx < cols) & (row + dy >= 0) & (row + dy < rows)
-        b = mi.UInt32(dr.clip(row + dy, 0, rows - 1) * cols + dr.clip(col + dx, 0, cols - 1))
-        gb = lambda v, t=mi.Float, b=b: dr.gather(t, v, b)  # noqa: E731
-        vb = gb(valid, mi.Bool)
-        step = oid != gb(oid, mi.UInt32)
-        step |= dr.abs(fd[ID_DIMS] - gb(fd[ID_DIMS])) > jump_d
-        step |= valid & vb & (sum(nd[i] * gb(nd[i]) for i in range(3)) < CREASE_COS)
-        front = zd <= gb(zd)
-        ue = (ux if dx else uy) * (dx + dy)  # u . e for e the unit step from here to there
-        u = dr.select(front, ue, -gb(ue))
-        # Half of the link's flux at each end: the filter at the midpoint, to O(h^2).
-        k = dr.select(inside & step & (valid | vb), 0.5 * n * u, 0.0)
-        for c, f in enumerate(fd):
-            flux[c] += dr.select(front, f - gb(f), gb(f) - f) * k
-    dr.eval(flux)
+    links = _Links(fd, oid, valid, zd, nd, rows, cols, 0.05 * depth_weight, n)
+    flux = dr.custom(_Flux, ux, uy, links)
     ts = _taps(n, R, sigma)
-    F = [
-        _separable(f + q, rows, cols, ts, ts, n, R, (w, h))
-        for f, q in zip(feats, flux, strict=True)
-    ]
+    F = [_separable(f + q, rows, cols, ts, n, R, (w, h)) for f, q in zip(feats, flux, strict=True)]
     var = dr.maximum(F[-1] - sum(f * f for f in F[:-1]), 0.0)
     return mi.TensorXf(1.0 - dr.exp(-var / kappa), shape=(h, w))
