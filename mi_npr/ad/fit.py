@@ -285,3 +285,189 @@ def write_fit_camera(
         )
         out["lines"] = io.write_png(d / f"{stem}_fit_camera.png", ink_picture(lines), linear=False)
     return fit, out
+
+
+# -- fitting a shape ------------------------------------------------------------------------
+
+#: The pose parameters of an object :func:`fit_shape` can optimise.
+SHAPE_PARAMS = ("translation", "rotation", "scale")
+
+#: :func:`fit_shape`'s settings (the command line's flags are built from this table).
+SHAPE_FIT_PARAMS: tuple[Param, ...] = (
+    entry(FIT_PARAMS, "iterations"),
+    entry(FIT_PARAMS, "lr"),
+    Param(
+        "fit",
+        str,
+        "translation,rotation,scale",
+        "the object's pose parameters to fit, comma-separated: translation, rotation, scale",
+        names_rule(SHAPE_PARAMS, "shape"),
+    ),
+    entry(FIT_PARAMS, "samples"),
+)
+
+
+@dataclass
+class ShapeFit:
+    """What :func:`fit_shape` found for ``object``: the pose change about ``centre`` (the
+    object's bounding-box centre as loaded), ``p -> centre + translation + R (scale (p -
+    centre))`` with ``R = Rz Ry Rx`` of ``rotation`` (degrees about x, then y, then z); the
+    ``loss`` after each step and the fit's wall ``seconds``."""
+
+    object: str
+    centre: np.ndarray
+    translation: np.ndarray
+    rotation: np.ndarray
+    scale: float
+    loss: list[float] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """The pose change as a 4x4 world-space matrix (column vectors)."""
+        R = np.asarray(_rotation(*np.radians(self.rotation)), np.float64).reshape(3, 3)
+        m = np.eye(4)
+        m[:3, :3] = R * self.scale
+        m[:3, 3] = self.centre + self.translation - m[:3, :3] @ self.centre
+        return m
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "object": self.object,
+            "centre": self.centre.tolist(),
+            "translation": self.translation.tolist(),
+            "rotation_degrees_xyz": self.rotation.tolist(),
+            "scale": self.scale,
+            "matrix": self.matrix.tolist(),
+        }
+
+
+def _rotation(ax: Any, ay: Any, az: Any) -> list[Any]:
+    """The 3x3 matrix ``Rz(az) Ry(ay) Rx(ax)`` (row-major, nine entries): well defined, with
+    gradients, at 0, unlike an axis-angle vector."""
+    cx, sx, cy, sy, cz, sz = (f(a) for a in (ax, ay, az) for f in (np.cos, np.sin))
+    if not isinstance(ax, (float, np.floating)):
+        cx, sx, cy, sy, cz, sz = (f(a) for a in (ax, ay, az) for f in (dr.cos, dr.sin))
+    return [
+        cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx,
+        sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx,
+        -sy, cy * sx, cy * cx,
+    ]  # fmt: skip
+
+
+def _shape_key(scene: mi.Scene, name: str) -> tuple[str, mi.Shape]:
+    """The scene's ``mi.traverse`` key that moves the object ``name`` (its ``vertex_positions``
+    for a mesh, else its ``to_world``), and the shape."""
+    from ..scene import object_table  # here: only the shape fit needs the object table
+
+    table = object_table(scene)
+    found = [oid for oid, n in table.names.items() if n == name]
+    if not found:
+        names = ", ".join(sorted(table.names.values())) or "none"
+        raise ParameterError(f"object {name!r}: the scene has no such object (it has {names})")
+    shape = table.shapes[found[0]]
+    key = f"{shape.id()}.{'vertex_positions' if shape.is_mesh() else 'to_world'}"
+    if not shape.id() or key not in mi.traverse(scene):
+        raise ParameterError(
+            f"object {name!r}: a {shape.class_name()} without a differentiable "
+            f"{key.rsplit('.', 1)[-1]} in the scene's parameters; its pose cannot be fitted"
+        )
+    return key, shape
+
+
+def fit_shape(
+    scene: mi.Scene | str | os.PathLike[str],
+    drawing: Any,
+    object: str,
+    *,
+    params: Sequence[str] | str = SHAPE_PARAMS,
+    iterations: int = 120,
+    lr: float = 0.03,
+    samples: int = 2,
+    scales: Sequence[float] = SCALES,
+    line_options: dict[str, Any] | None = None,
+    on_step: Callable[[int, float], None] | None = None,
+) -> ShapeFit:
+    """The pose of ``object`` (its name in the scene's object table) that makes the scene's
+    lines, seen by its sensor, match ``drawing`` (as :func:`fit_camera`, the camera held and
+    the object moved): ``params`` among :data:`SHAPE_PARAMS`; learning rates ``lr`` times the
+    object's bounding radius for the translation, ``lr`` radians for the rotation and ``lr``
+    for the log of the scale. The object is left at the fitted pose."""
+    require_ad("fit_shape")
+    params = _names("fit_shape", SHAPE_FIT_PARAMS, params)
+    iterations = check_arg("fit_shape", entry(SHAPE_FIT_PARAMS, "iterations"), iterations)
+    lr = check_arg("fit_shape", entry(SHAPE_FIT_PARAMS, "lr"), lr)
+    samples = check_arg("fit_shape", entry(SHAPE_FIT_PARAMS, "samples"), samples)
+    scales = tuple(float(s) for s in scales)
+    if not scales:
+        raise ParameterError("scales: give at least one")
+    if not isinstance(scene, mi.Scene):
+        scene = load_scene(scene)
+    if not scene.sensors():
+        raise ParameterError("fit_shape: the scene has no sensor (it sees the drawing)")
+    sensor = scene.sensors()[0]
+    size = film_size(sensor)
+    ink = drawing_ink(drawing, size)
+    key, shape = _shape_key(scene, object)
+    sp = mi.traverse(scene)  # the scene's: updating it rebuilds the acceleration structure
+    bb = shape.bbox()
+    centre = np.array((bb.min + bb.max) * 0.5, np.float64).ravel()
+    radius = max(float(dr.norm(bb.max - bb.min)) * 0.5, 1e-6)
+    mesh = key.endswith(".vertex_positions")
+    original = mi.Float(sp[key]) if mesh else mi.Transform4f(sp[key])
+    cam = Pinhole.of_sensor(sensor)
+    opts = {**LINE_OPTIONS, "n": samples, **(line_options or {})}
+    sb = scene.bbox()
+    opts.setdefault("depth_scale", float(dr.norm(sb.max - sb.min)) if sb.valid() else 1.0)
+    values = {"translation": mi.Vector3f(0.0), "rotation": mi.Vector3f(0.0), "scale": mi.Float(0.0)}
+    rates = {"translation": lr * radius, "rotation": lr, "scale": lr}
+    opt = mi.ad.Adam(lr=lr)
+    for k in params:
+        opt[k] = values[k]
+    c = mi.Point3f(centre)
+    total = float(ink.sum())
+
+    def pose(cur: dict[str, Any]) -> None:
+        r = cur["rotation"]
+        R = _rotation(r.x, r.y, r.z)
+        s = dr.exp(cur["scale"])
+        if mesh:
+            q = dr.unravel(mi.Point3f, original) - c
+            rq = mi.Vector3f(
+                *(R[3 * i] * q.x + R[3 * i + 1] * q.y + R[3 * i + 2] * q.z for i in range(3))
+            )
+            sp[key] = dr.ravel(c + cur["translation"] + s * rq)
+        else:
+            t = c + cur["translation"]
+            M = mi.Matrix4f(
+                s * R[0], s * R[1], s * R[2], 0.0,
+                s * R[3], s * R[4], s * R[5], 0.0,
+                s * R[6], s * R[7], s * R[8], 0.0,
+                0.0, 0.0, 0.0, 1.0,
+            )  # fmt: skip
+            T = mi.Transform4f().translate(t) @ mi.Transform4f(M) @ mi.Transform4f().translate(-c)
+            sp[key] = T @ original
+        sp.update()
+
+    t0 = time.perf_counter()
+    fit = ShapeFit(object, centre, np.zeros(3), np.zeros(3), 1.0)
+    stages = [scales[min(i, len(scales) - 1) :] for i in range(3)]
+    for i in range(iterations):
+        decay = 0.1 ** (i / iterations)
+        opt.set_learning_rate({k: rates[k] * decay for k in params})
+        pose({k: opt[k] if k in params else values[k] for k in SHAPE_PARAMS})
+        lines = soft_lines(scene, cam, size, **opts)
+        lines = lines * (total / dr.maximum(dr.sum(lines.array), 1e-6))
+        loss = blurred_l2(lines, ink, stages[min(2, 3 * i // iterations)])
+        dr.backward(loss)
+        opt.step()
+        fit.loss.append(float(loss[0]))
+        if on_step is not None:
+            on_step(i, fit.loss[-1])
+    final = {k: opt[k] if k in params else values[k] for k in SHAPE_PARAMS}
+    pose({k: dr.detach(v) for k, v in final.items()})
+    fit.translation = np.asarray(final["translation"], np.float64).ravel()
+    fit.rotation = np.degrees(np.asarray(final["rotation"], np.float64).ravel())
+    fit.scale = float(np.exp(np.asarray(final["scale"]).ravel()[0]))
+    fit.seconds = time.perf_counter() - t0
+    return fit
