@@ -101,3 +101,37 @@ def test03_errors_name_the_object_and_the_parameter():
         fit_shape(scene, ink, "box", params="translation,shear")
     with pytest.raises(mi_npr.ParameterError, match="12x10 pixels"):
         fit_shape(scene, np.zeros((10, 12)), "box")
+
+
+def test04_the_command_writes_the_pose(tmp_path, capsys):
+    import json
+
+    from mi_npr import cli
+    from mi_npr.ad.fit import ink_picture
+    from mi_npr.io import write_png
+
+    xml = tmp_path / "s.xml"
+    xml.write_text(f"""<scene version="3.0.0">
+<sensor type="perspective"><float name="fov" value="40"/>
+ <transform name="to_world"><lookat origin="3, 2.5, -5" target="0, 0, 0" up="0, 1, 0"/>
+ </transform><film type="hdrfilm"><integer name="width" value="{W}"/>
+ <integer name="height" value="{H}"/></film></sensor>
+<shape type="sphere" id="ball"><point name="center" x="0.8" y="0" z="0.3"/>
+ <float name="radius" value="0.5"/></shape>
+<shape type="cube" id="box"><transform name="to_world"><scale value="0.5"/>
+ <rotate y="1" angle="20"/><translate x="-0.5" y="0" z="0.2"/></transform></shape>
+<shape type="rectangle" id="floor"><transform name="to_world"><scale value="2.5"/>
+ <rotate x="1" angle="-90"/><translate y="-1"/></transform></shape>
+</scene>""")
+    turned = _about_centre(mi.ScalarTransform4f().rotate([0, 1, 0], 8.0))
+    write_png(tmp_path / "d.png", ink_picture(_drawing(turned)), linear=False)
+    args = ["fit-shape", str(xml), str(tmp_path / "d.png"), "--object", "box"]
+    assert cli.main([*args, "--fit", "rotation", "--iterations", "60", "-o", str(tmp_path)]) == 0
+    assert "wrote" in capsys.readouterr().out
+    pose = json.loads((tmp_path / "s_fit_shape.json").read_text())
+    assert pose["object"] == "box"
+    np.testing.assert_allclose(pose["rotation_degrees_xyz"], [0.0, 8.0, 0.0], atol=0.5)
+    assert (tmp_path / "s_fit_shape.png").is_file()
+    with pytest.raises(SystemExit):
+        cli.main([*args, "-o", str(tmp_path), "--fit", "origin"])
+    assert "'origin' is not a differentiable shape parameter" in capsys.readouterr().err

@@ -471,3 +471,33 @@ def fit_shape(
     fit.scale = float(np.exp(np.asarray(final["scale"]).ravel()[0]))
     fit.seconds = time.perf_counter() - t0
     return fit
+
+
+def write_fit_shape(
+    scene_path: str | os.PathLike[str],
+    drawing: str | os.PathLike[str],
+    object: str,
+    outdir: str | os.PathLike[str],
+    *,
+    stem: str | None = None,
+    defines: dict[str, Any] | None = None,
+    **options: Any,
+) -> tuple[ShapeFit, dict[str, Path]]:
+    """:func:`fit_shape` on an XML scene and a drawing file, written to ``outdir``:
+    ``<stem>_fit_shape.json`` (:meth:`ShapeFit.to_dict`: the pose change and its 4x4 matrix,
+    to apply before the object's ``to_world``) and ``<stem>_fit_shape.png`` (the scene's lines
+    with the object at the fitted pose, dark on white). ``options`` go to :func:`fit_shape`."""
+    import json  # only this writer needs it
+
+    require_ad("fit_shape")
+    scene = load_scene(scene_path, merge_defines(defines, {}))
+    fit = fit_shape(scene, drawing, object, **options)
+    d = io.check_writable_dir(outdir, create=True)
+    stem = stem or Path(scene_path).stem
+    lines = soft_lines(scene)
+    info = {**fit.to_dict(), "loss": fit.loss[-1], "iterations": len(fit.loss)}
+    out: dict[str, Path] = {}
+    with io.output_set():
+        out["pose"] = io.write_text(d / f"{stem}_fit_shape.json", json.dumps(info, indent=2))
+        out["lines"] = io.write_png(d / f"{stem}_fit_shape.png", ink_picture(lines), linear=False)
+    return fit, out

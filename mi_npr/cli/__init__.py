@@ -1,10 +1,11 @@
 """The ``mi-npr`` command: parses arguments and calls the library, nothing else.
 
 One module per command (:mod:`.render`, :mod:`.contours`, :mod:`.raytree`, :mod:`.batch`,
-:mod:`.dataset`, :mod:`.best_view`, :mod:`.fit_camera`, :mod:`.path`, :mod:`.foliage`,
-:mod:`.info`), each with its ``NAME``, ``HELP``, the library's parameter tables its flags are
-built from (``TABLES``, :mod:`._common`), ``add_arguments`` and ``run``; the drawing switches
-and their parameters come from the drawing registry (:data:`mi_npr.drawings.DRAWINGS`).
+:mod:`.dataset`, :mod:`.best_view`, :mod:`.fit_camera`, :mod:`.fit_shape`, :mod:`.path`,
+:mod:`.foliage`, :mod:`.info`), each with its ``NAME``, ``HELP``, the library's parameter
+tables its flags are built from (``TABLES``, :mod:`._common`), ``add_arguments`` and ``run``;
+the drawing switches and their parameters come from the drawing registry
+(:data:`mi_npr.drawings.DRAWINGS`).
 
 Exit codes: 0 all succeeded, 1 something failed (each failure reported on one line), 2 usage
 error, 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); both remove the temporary files of
@@ -39,6 +40,7 @@ NAMES = (
     "dataset",
     "best-view",
     "fit-camera",
+    "fit-shape",
     "path",
     "foliage",
     "info",
@@ -59,6 +61,7 @@ def commands() -> dict[str, ModuleType] | None:
         contours,
         dataset,
         fit_camera,
+        fit_shape,
         foliage,
         info,
         path,
@@ -74,6 +77,7 @@ def commands() -> dict[str, ModuleType] | None:
         dataset,
         best_view,
         fit_camera,
+        fit_shape,
         path,
         foliage,
         info,
