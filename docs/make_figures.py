@@ -252,6 +252,55 @@ def fit_camera_panel() -> Path:
     return _figure(panels, "fit_camera_scene3.png", (1, 3), (13, 3.6), 80)
 
 
+def fit_shape_panel() -> Path:
+    """Fitting a shape on scene 3: the drawing with the front-left box turned 12 degrees and
+    scaled by 1.1, the lines before and after the box's rotation and scale are fitted."""
+    from mi_npr.ad import soft_lines
+    from mi_npr.ad.fit import fit_shape
+
+    w, h = 160, 120
+    path = ROOT / "scenes_xml" / "scene3.xml"
+    scene = mi_npr.load_scene(path, width=w, height=h, spp=1)
+    table = mi_npr.object_table(scene)
+    name = "box_front_left"
+    shape = next(s for oid, s in table.shapes.items() if table.names[oid] == name)
+    mi = mi_npr.mi
+    params = mi.traverse(scene)
+    key = f"{shape.id()}.vertex_positions" if shape.is_mesh() else f"{shape.id()}.to_world"
+    original = mi.Float(params[key]) if shape.is_mesh() else mi.Transform4f(params[key])
+    bb = shape.bbox()
+    c = [float(v) for v in np.asarray((bb.min + bb.max) * 0.5).ravel()]
+    change = (
+        mi.ScalarTransform4f().translate(c)
+        @ mi.ScalarTransform4f().rotate([0, 1, 0], 12.0).scale(1.1)
+        @ mi.ScalarTransform4f().translate([-v for v in c])
+    )
+    if shape.is_mesh():
+        P = mi.Transform4f(change) @ mi_npr.dr.unravel(mi.Point3f, original)
+        params[key] = mi_npr.dr.ravel(P)
+    else:
+        params[key] = mi.Transform4f(change) @ original
+    params.update()
+    drawing = np.clip(np.asarray(soft_lines(scene, n=2, sigma=0.7)), 0, 1)
+    params[key] = original
+    params.update()
+    before = np.clip(np.asarray(soft_lines(scene, n=2, sigma=0.7)), 0, 1)
+    fit = fit_shape(scene, drawing, name, params="rotation,scale", iterations=120)
+    after = np.clip(np.asarray(soft_lines(scene, n=2, sigma=0.7)), 0, 1)
+
+    def overlay(b: np.ndarray) -> np.ndarray:  # red: the drawing only, blue: the lines only
+        a = drawing
+        return np.stack([1 - b, 1 - a - b + a * b, 1 - a], -1).clip(0, 1)
+
+    title = f"after: {fit.rotation[1]:.2f} deg about y, scale {fit.scale:.3f}"
+    panels = [
+        (1 - drawing, f"the drawing ({name} turned 12 deg, x1.1)", {"cmap": "gray"}),
+        (overlay(before), "before: the scene as loaded"),
+        (overlay(after), title),
+    ]
+    return _figure(panels, "fit_shape_scene3.png", (1, 3), (13, 3.6), 80)
+
+
 PANELS = {
     "overview": overview_panel,
     "gbuffer": gbuffer_panel,
@@ -262,6 +311,7 @@ PANELS = {
     "svg": svg_panel,
     "selection": selection_panel,
     "fit_camera": fit_camera_panel,
+    "fit_shape": fit_shape_panel,
 }
 
 if __name__ == "__main__":
