@@ -169,14 +169,18 @@ def _down(v: Any, rows: int, cols: int, w: int, taps: Taps, n: int, R: int) -> A
 
 def _down_t(g: Any, rows: int, cols: int, w: int, taps: Taps, n: int, R: int) -> Any:
     """The transpose of :func:`_down` (its adjoint, for the backward pass) by gathers:
-    ``v[r, c] = sum_k w_k g[r, (c - k) / n - R]`` over the ``k`` that divide evenly."""
+    ``v[r, c] = sum_i w_(c - R n - i n) g[r, i]`` over the ``2 R + 1`` outputs ``i`` whose
+    window holds column ``c`` (taps ``k`` are contiguous from ``-R n``)."""
     idx = dr.arange(mi.Int32, rows * cols)
     r, c = idx // cols, idx % cols
+    table = mi.Float([wt for _, wt in taps])  # weight of tap k at k + R n
+    last = len(taps) - 1
     acc = mi.Float(0.0)
-    for k, wt in taps:
-        q = c - k - R * n  # = i n for the output i that reads c through tap k
-        i = q // n
-        ok = (q >= 0) & (q % n == 0) & (i < w)
+    for j in range(-(-len(taps) // n)):
+        i = c // n - j  # the output reading c through tap k = c % n - R n + j n
+        at = c % n + j * n  # that tap's place in the table
+        ok = (i >= 0) & (i < w) & (at <= last)
+        wt = dr.gather(mi.Float, table, mi.UInt32(dr.minimum(at, last)), ok)
         acc += dr.select(
             ok, wt * dr.gather(mi.Float, g, mi.UInt32(r * w + dr.maximum(i, 0)), ok), 0.0
         )
