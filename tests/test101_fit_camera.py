@@ -117,3 +117,10 @@ def test04_a_variant_without_ad_is_named(case, tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert "'llvm_rgb' has none: use 'llvm_ad_rgb'" in err and "Traceback" not in err
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test05_the_field_of_view_is_recovered(case):
+    wide = Camera(TRUE.origin, TRUE.target, TRUE.up, 46.0)
+    fit = fit_camera(str(case / "start.xml"), str(case / "drawing.png"), start=wide, params="fov")
+    assert fit.camera.fov == pytest.approx(TRUE.fov, abs=0.2)
+    assert fit.camera.origin == pytest.approx(TRUE.origin, abs=1e-5)  # held
