@@ -215,6 +215,92 @@ def selection_panel() -> Path | None:
     return _figure(panels, "selection_lego.png", (1, 3), (16, 3.6), 80)
 
 
+def fit_camera_panel() -> Path:
+    """The camera from a sketch on scene 3: the drawing (from a camera 14 degrees around and 8%
+    nearer), the lines from the start and from the fitted camera over it."""
+    from mi_npr.ad import Pinhole, soft_lines
+    from mi_npr.ad.fit import camera_error, fit_camera
+    from mi_npr.camera import Camera, rotate
+
+    w, h = 160, 120
+    scene = mi_npr.load_scene(ROOT / "scenes_xml" / "scene3.xml", width=w, height=h, spp=1)
+    start = mi_npr.camera_of(scene.sensors()[0])
+    t = np.array([0.0, 0.55, 0.6])
+    o = t + rotate(np.subtract(start.origin, t), [0.3, 1.0, 0.1], np.radians(14.0)) * 0.92
+    hidden = Camera(tuple(o), tuple(t), (0.0, 1.0, 0.0), start.fov)
+
+    def lines(c: Camera) -> np.ndarray:
+        cam = Pinhole.look_at(c.origin, c.target, c.up, c.fov)
+        return np.clip(np.asarray(soft_lines(scene, cam, (w, h), n=2, sigma=0.7)), 0, 1)
+
+    drawing = lines(hidden)
+    fit = fit_camera(scene, drawing, iterations=150)
+    deg, dist = camera_error(fit.camera, hidden)
+
+    def overlay(b: np.ndarray) -> np.ndarray:  # red: the drawing only, blue: the lines only
+        a = drawing
+        return np.stack([1 - b, 1 - a - b + a * b, 1 - a], -1).clip(0, 1)
+
+    panels = [
+        (1 - drawing, "the drawing (hidden camera)", {"cmap": "gray", "vmin": 0, "vmax": 1}),
+        (overlay(lines(start)), "before: the scene's sensor"),
+        (
+            overlay(lines(fit.camera)),
+            f"after {len(fit.loss)} steps: {deg:.3f} deg, {100 * dist:.3f}%",
+        ),
+    ]
+    return _figure(panels, "fit_camera_scene3.png", (1, 3), (13, 3.6), 80)
+
+
+def fit_shape_panel() -> Path:
+    """Fitting a shape on scene 3: the drawing with the front-left box turned 12 degrees and
+    scaled by 1.1, the lines before and after the box's rotation and scale are fitted."""
+    from mi_npr.ad import soft_lines
+    from mi_npr.ad.fit import fit_shape
+
+    w, h = 160, 120
+    path = ROOT / "scenes_xml" / "scene3.xml"
+    scene = mi_npr.load_scene(path, width=w, height=h, spp=1)
+    table = mi_npr.object_table(scene)
+    name = "box_front_left"
+    shape = next(s for oid, s in table.shapes.items() if table.names[oid] == name)
+    mi = mi_npr.mi
+    params = mi.traverse(scene)
+    key = f"{shape.id()}.vertex_positions" if shape.is_mesh() else f"{shape.id()}.to_world"
+    original = mi.Float(params[key]) if shape.is_mesh() else mi.Transform4f(params[key])
+    bb = shape.bbox()
+    c = [float(v) for v in np.asarray((bb.min + bb.max) * 0.5).ravel()]
+    change = (
+        mi.ScalarTransform4f().translate(c)
+        @ mi.ScalarTransform4f().rotate([0, 1, 0], 12.0).scale(1.1)
+        @ mi.ScalarTransform4f().translate([-v for v in c])
+    )
+    if shape.is_mesh():
+        P = mi.Transform4f(change) @ mi_npr.dr.unravel(mi.Point3f, original)
+        params[key] = mi_npr.dr.ravel(P)
+    else:
+        params[key] = mi.Transform4f(change) @ original
+    params.update()
+    drawing = np.clip(np.asarray(soft_lines(scene, n=2, sigma=0.7)), 0, 1)
+    params[key] = original
+    params.update()
+    before = np.clip(np.asarray(soft_lines(scene, n=2, sigma=0.7)), 0, 1)
+    fit = fit_shape(scene, drawing, name, params="rotation,scale", iterations=120)
+    after = np.clip(np.asarray(soft_lines(scene, n=2, sigma=0.7)), 0, 1)
+
+    def overlay(b: np.ndarray) -> np.ndarray:  # red: the drawing only, blue: the lines only
+        a = drawing
+        return np.stack([1 - b, 1 - a - b + a * b, 1 - a], -1).clip(0, 1)
+
+    title = f"after: {fit.rotation[1]:.2f} deg about y, scale {fit.scale:.3f}"
+    panels = [
+        (1 - drawing, f"the drawing ({name} turned 12 deg, x1.1)", {"cmap": "gray"}),
+        (overlay(before), "before: the scene as loaded"),
+        (overlay(after), title),
+    ]
+    return _figure(panels, "fit_shape_scene3.png", (1, 3), (13, 3.6), 80)
+
+
 PANELS = {
     "overview": overview_panel,
     "gbuffer": gbuffer_panel,
@@ -224,6 +310,8 @@ PANELS = {
     "foliage": foliage_panel,
     "svg": svg_panel,
     "selection": selection_panel,
+    "fit_camera": fit_camera_panel,
+    "fit_shape": fit_shape_panel,
 }
 
 if __name__ == "__main__":

@@ -79,6 +79,8 @@ _ARGS = {
     "batch": ["x.xml", "-o", "out"],
     "dataset": ["x.obj", "-o", "out"],
     "best-view": ["x.xml", "--measure", "pb", "-o", "out"],
+    "fit-camera": ["x.xml", "d.png", "-o", "out"],
+    "fit-shape": ["x.xml", "d.png", "--object", "box", "-o", "out"],
     "foliage": ["procedural:tree", "--style", "van_gogh", "-o", "x.xml"],
     "path": ["x.xml", "-o", "out", "--frames", "2"],
 }

@@ -13,12 +13,33 @@ gradient everywhere:
   from each pixel to the target's nearest line pixel (ink above one half): the mean distance of
   the rendered ink to the target's lines, 0 when every inked pixel lies on them.
 
-Both take ``r`` as an (H, W) Dr.Jit tensor or array and ``t`` as an (H, W) array of the same
+The rendered image with gradients from silhouettes and occlusion boundaries that move is
+:func:`soft_lines` (:mod:`mi_npr.ad.visibility`: prefiltered multi-sample lines, interior and
+boundary terms). :func:`fit_camera` finds the camera a drawing was made from and
+:func:`fit_shape` an object's pose (:mod:`mi_npr.ad.fit`; commands ``mi-npr fit-camera`` and
+``mi-npr fit-shape``).
+
+Both losses take ``r`` as an (H, W) Dr.Jit tensor or array and ``t`` as an (H, W) array of the same
 size; a drawing of another size is a :class:`~mi_npr.errors.ParameterError` naming both sizes.
 """
 
 from __future__ import annotations
 
+from .fit import CameraFit, ShapeFit, fit_camera, fit_shape, write_fit_camera, write_fit_shape
 from .losses import blur, blurred_l2, chamfer, read_drawing
+from .visibility import Pinhole, soft_lines
 
-__all__ = ["blur", "blurred_l2", "chamfer", "read_drawing"]
+__all__ = [
+    "CameraFit",
+    "Pinhole",
+    "ShapeFit",
+    "blur",
+    "blurred_l2",
+    "chamfer",
+    "fit_camera",
+    "fit_shape",
+    "read_drawing",
+    "soft_lines",
+    "write_fit_camera",
+    "write_fit_shape",
+]

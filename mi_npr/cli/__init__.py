@@ -1,10 +1,11 @@
 """The ``mi-npr`` command: parses arguments and calls the library, nothing else.
 
 One module per command (:mod:`.render`, :mod:`.contours`, :mod:`.raytree`, :mod:`.batch`,
-:mod:`.dataset`, :mod:`.best_view`, :mod:`.path`, :mod:`.foliage`, :mod:`.info`), each with its
-``NAME``, ``HELP``, the library's parameter tables its flags are built from (``TABLES``,
-:mod:`._common`), ``add_arguments`` and ``run``; the drawing switches and their parameters come
-from the drawing registry (:data:`mi_npr.drawings.DRAWINGS`).
+:mod:`.dataset`, :mod:`.best_view`, :mod:`.fit_camera`, :mod:`.fit_shape`, :mod:`.path`,
+:mod:`.foliage`, :mod:`.info`), each with its ``NAME``, ``HELP``, the library's parameter
+tables its flags are built from (``TABLES``, :mod:`._common`), ``add_arguments`` and ``run``;
+the drawing switches and their parameters come from the drawing registry
+(:data:`mi_npr.drawings.DRAWINGS`).
 
 Exit codes: 0 all succeeded, 1 something failed (each failure reported on one line), 2 usage
 error, 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); both remove the temporary files of
@@ -38,6 +39,8 @@ NAMES = (
     "batch",
     "dataset",
     "best-view",
+    "fit-camera",
+    "fit-shape",
     "path",
     "foliage",
     "info",
@@ -52,9 +55,33 @@ def commands() -> dict[str, ModuleType] | None:
     if mi_npr.LLVM is None:
         return None
     # imported here: they import Dr.Jit (see above)
-    from . import batch, best_view, contours, dataset, foliage, info, path, raytree, render
+    from . import (
+        batch,
+        best_view,
+        contours,
+        dataset,
+        fit_camera,
+        fit_shape,
+        foliage,
+        info,
+        path,
+        raytree,
+        render,
+    )
 
-    modules = (render, contours, raytree, batch, dataset, best_view, path, foliage, info)
+    modules = (
+        render,
+        contours,
+        raytree,
+        batch,
+        dataset,
+        best_view,
+        fit_camera,
+        fit_shape,
+        path,
+        foliage,
+        info,
+    )
     return {m.NAME: m for m in modules}
 
 

@@ -1,0 +1,402 @@
+"""Differentiable lines with visibility gradients: silhouettes and occlusion boundaries that move.
+
+The G-buffer pass (:mod:`mi_npr.render`) casts one ray through each pixel centre: its ids and
+depths jump where visibility changes, and automatic differentiation sees no motion of a
+silhouette at all. :func:`soft_lines` is the line image for optimisation instead: an
+anti-aliased (prefiltered, multi-sample) image whose derivatives include the motion of every
+discontinuity it sees.
+
+**Samples.** An ``n x n`` grid of rays per pixel (sub-pixel spacing ``h = 1 / n``), over the
+image and a margin of ``ceil(3 sigma)`` pixels (so no pixel's filter is cut by the frame). Each
+sample ``s`` carries a feature vector ``f_s``: a pseudo-random unit vector in R^4 per object id
+(0 for the background, the *id* feature), ``w_d * depth_scale / z`` (inverse depth; 0 for the
+background) and ``w_n * n`` (the shading normal; 0 for the background).
+
+**Prefiltered features.** ``F(x) = sum_s omega(x - p_s) f_s``, ``omega`` a Gaussian of standard
+deviation ``sigma`` pixels normalised over the sample grid, and likewise ``F2(x)`` of ``|f_s|^2``.
+
+**Lines.** The local variance ``V = F2 - |F|^2`` is 0 where the features are constant and
+``a (1 - a) |f_1 - f_2|^2`` across a step between two features covering ``a`` and ``1 - a`` of
+the filter; ink ``= 1 - exp(-V / kappa)``. So silhouettes and ID edges (the id feature),
+occlusion boundaries within an object (the depth feature) and creases (the normal feature)
+are drawn as bands about ``2 sigma`` wide, each by the same rule.
+
+**Gradients.** Two terms:
+
+- *interior*: each sample's ray is built from the (differentiable) camera and intersected with
+  the (differentiable) scene, so ``z`` and ``n`` carry the derivatives of smooth motion;
+- *boundary* (Reynolds transport, discretised on the sample grid as in edge sampling): where two
+  neighbouring samples ``a``, ``b`` differ by a discontinuity (other ids, an inverse-depth step
+  above ``0.05 w_d``, or normals more than 30 degrees apart), the step lies between them and
+  moves with the *front* sample's surface (the nearer; at a silhouette the material point on the
+  contour moves, to first order, as the outline does along its normal). Its image velocity
+  ``u = d pi(P) / d theta`` (``P`` the front hit's material point, Mitsuba's
+  ``RayFlags.FollowShape``, ``pi`` the differentiable projection) adds
+  ``sum_links omega(m) (f_front - f_back) (u . e) / h`` to ``F`` (``m`` the link's midpoint,
+  taken as half at each end, exact to ``O(h^2)``; ``e`` the unit step from front to back); the
+  staircase of links measures ``integral (u . n) dl`` exactly for a uniform ``u``. The term is
+  zero in the primal pass and differentiates to the flux of the moving boundary, which is what
+  Mitsuba's reparameterized primary rays (``prb_reparam``, not in Mitsuba 3.9) give a film.
+
+Not covered: topology changes (a line born or vanishing at a cusp or a T-junction, a feature
+thinner than ``h``), the image-frame boundary beyond the margin, and the ``O(h)`` error of the
+staircase and of taking the sample's velocity for the contour's. The primal image is exact to
+the sample grid: a moving silhouette steps in ``h`` increments, so finite differences need a
+step of several ``h``.
+
+Cameras: a :class:`Pinhole` (origin, forward, left, up, horizontal fov; each may hold
+gradients), built from a ``lookat`` (:meth:`Pinhole.look_at`) or a perspective sensor's
+``to_world`` and ``x_fov`` (:meth:`Pinhole.of_sensor`, gradients of ``params['cam.to_world']``
+included).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from ..errors import ParameterError
+from ..raycast import film_size, require_jit
+from ..scene import object_table
+
+Taps = list[tuple[int, float]]
+
+#: Dimension of the per-object id feature.
+ID_DIMS = 4
+#: Cosine of the normal angle above which two neighbouring samples are on two sides of a crease.
+CREASE_COS = math.cos(math.radians(30.0))
+
+
+@dataclass
+class Pinhole:
+    """A perspective camera in Dr.Jit values (gradients allowed): ``origin``; unit ``forward``,
+    ``left`` and ``up`` (Mitsuba's camera frame: +z forward, +x left, +y up); ``fov`` the
+    horizontal field of view in degrees. Pixel ``(x, y)`` of a ``W x H`` image (``x`` in
+    ``[0, W]``) looks along ``forward + (1 - 2 x / W) tan(fov / 2) left + (1 - 2 y / H)
+    tan(fov / 2) H / W up``, as :func:`mi_npr.raycast.pinhole_rays` and Mitsuba's
+    ``perspective`` sensor."""
+
+    origin: Any
+    forward: Any
+    left: Any
+    up: Any
+    fov: Any
+
+    @classmethod
+    def look_at(cls, origin: Any, target: Any, up: Any, fov: Any) -> Pinhole:
+        """The camera of ``lookat(origin, target, up)`` (Mitsuba's frame construction)."""
+        o = mi.Point3f(origin)
+        f = dr.normalize(mi.Vector3f(target) - o)
+        left = dr.normalize(dr.cross(mi.Vector3f(up), f))
+        return cls(o, f, left, dr.cross(f, left), mi.Float(fov))
+
+    @classmethod
+    def of_sensor(cls, sensor: mi.Sensor) -> Pinhole:
+        """The camera of a ``perspective`` sensor (``fov_axis="x"``), with the gradients its
+        ``to_world`` holds after ``params.update()``."""
+        if sensor.class_name() != "PerspectiveCamera":
+            raise ParameterError(
+                f"the sensor is a {sensor.class_name()}: differentiable lines need a "
+                "perspective sensor"
+            )
+        T = sensor.world_transform()
+        fov = float(np.asarray(mi.traverse(sensor)["x_fov"]).ravel()[0])
+        return cls(
+            T @ mi.Point3f(0.0, 0.0, 0.0),
+            dr.normalize(T @ mi.Vector3f(0.0, 0.0, 1.0)),
+            dr.normalize(T @ mi.Vector3f(1.0, 0.0, 0.0)),
+            dr.normalize(T @ mi.Vector3f(0.0, 1.0, 0.0)),
+            mi.Float(fov),
+        )
+
+    def _tan(self, size: tuple[int, int]) -> tuple[Any, Any]:
+        tx = dr.tan(mi.Float(self.fov) * (math.pi / 360.0))
+        return tx, tx * (size[1] / size[0])
+
+    def rays(self, x: Any, y: Any, size: tuple[int, int]) -> mi.Ray3f:
+        """Rays through image positions ``(x, y)`` (pixels) of a ``size = (W, H)`` image."""
+        tx, ty = self._tan(size)
+        w, h = size
+        d = (
+            self.forward
+            + self.left * ((1.0 - 2.0 * x / w) * tx)
+            + self.up * ((1.0 - 2.0 * y / h) * ty)
+        )
+        return mi.Ray3f(self.origin, dr.normalize(d))
+
+    def project(self, p: Any, size: tuple[int, int]) -> tuple[Any, Any]:
+        """Image positions (pixels) of world points ``p``: the inverse of :meth:`rays`."""
+        tx, ty = self._tan(size)
+        w, h = size
+        q = p - self.origin
+        z = dr.dot(q, self.forward)
+        x = 0.5 * w * (1.0 - dr.dot(q, self.left) / (z * tx))
+        y = 0.5 * h * (1.0 - dr.dot(q, self.up) / (z * ty))
+        return x, y
+
+
+def _id_features(oid: Any) -> list[Any]:
+    """A fixed pseudo-random unit vector per object id (a hash of it), 0 for the background."""
+    rng = mi.PCG32(initstate=mi.UInt64(oid) * 0x9E3779B97F4A7C15 + 7)
+    v = [rng.next_float32() - 0.5 for _ in range(ID_DIMS)]
+    norm = dr.sqrt(sum(c * c for c in v))
+    return [dr.select(oid > 0, c / norm, 0.0) for c in v]
+
+
+def _taps(n: int, R: int, sigma: float) -> list[tuple[int, float]]:
+    """Offsets ``k`` (sub-samples from a pixel's first one) and the filter's 1-D weights there,
+    normalised to sum 1."""
+    ks = range(-n * R, n + n * R)
+    g = [math.exp(-0.5 * (((k + 0.5) / n - 0.5) / sigma) ** 2) for k in ks]
+    return [(k, v / sum(g)) for k, v in zip(ks, g, strict=True)]
+
+
+def _down(v: Any, rows: int, cols: int, w: int, taps: Taps, n: int, R: int) -> Any:
+    """``out[r, i] = sum_k w_k v[r, (i + R) n + k]``: a (rows, cols) array filtered and
+    decimated along its rows to (rows, w)."""
+    idx = dr.arange(mi.Int32, rows * w)
+    r, i = idx // w, idx % w
+    acc = mi.Float(0.0)
+    for k, wt in taps:
+        acc += wt * dr.gather(mi.Float, v, mi.UInt32(r * cols + (i + R) * n + k))
+    return acc
+
+
+def _down_t(g: Any, rows: int, cols: int, w: int, taps: Taps, n: int, R: int) -> Any:
+    """The transpose of :func:`_down` (its adjoint, for the backward pass) by gathers:
+    ``v[r, c] = sum_i w_(c - R n - i n) g[r, i]`` over the ``2 R + 1`` outputs ``i`` whose
+    window holds column ``c`` (taps ``k`` are contiguous from ``-R n``)."""
+    idx = dr.arange(mi.Int32, rows * cols)
+    r, c = idx // cols, idx % cols
+    table = mi.Float([wt for _, wt in taps])  # weight of tap k at k + R n
+    last = len(taps) - 1
+    acc = mi.Float(0.0)
+    for j in range(-(-len(taps) // n)):
+        i = c // n - j  # the output reading c through tap k = c % n - R n + j n
+        at = c % n + j * n  # that tap's place in the table
+        ok = (i >= 0) & (i < w) & (at <= last)
+        wt = dr.gather(mi.Float, table, mi.UInt32(dr.minimum(at, last)), ok)
+        acc += dr.select(
+            ok, wt * dr.gather(mi.Float, g, mi.UInt32(r * w + dr.maximum(i, 0)), ok), 0.0
+        )
+    return acc
+
+
+def _transpose(v: Any, rows: int, cols: int) -> Any:
+    """A (rows, cols) array stored column by column: (cols, rows)."""
+    idx = dr.arange(mi.UInt32, rows * cols)
+    return dr.gather(mi.Float, v, (idx % rows) * cols + idx // rows)
+
+
+class _Separable(dr.CustomOp):
+    """:func:`_separable` with a backward pass of gathers: Dr.Jit would otherwise transpose
+    each of the filter's gathers into an atomic scatter-add, several times slower."""
+
+    def eval(self, v: Any, rows: int, cols: int, w: int, h: int, taps: Taps, n: int, R: int):
+        self.shape = (rows, cols, w, h, taps, n, R)
+        return _apply(v, *self.shape)
+
+    def forward(self) -> None:
+        self.set_grad_out(_apply(self.grad_in("v"), *self.shape))
+
+    def backward(self) -> None:
+        rows, cols, w, h, taps, n, R = self.shape
+        g = _transpose(self.grad_out(), h, w)  # (w, h): the y pass's transpose along rows
+        g = _down_t(g, w, rows, h, taps, n, R)  # (w, rows)
+        g = _transpose(g, w, rows)  # (rows, w)
+        self.set_grad_in("v", _down_t(g, rows, cols, w, taps, n, R))
+
+    def name(self) -> str:
+        return "separable filter"
+
+
+def _apply(v: Any, rows: int, cols: int, w: int, h: int, taps: Taps, n: int, R: int) -> Any:
+    acc = _down(v, rows, cols, w, taps, n, R)  # (rows, w)
+    dr.eval(acc)
+    acc = _transpose(acc, rows, w)  # (w, rows)
+    return _transpose(_down(acc, w, rows, h, taps, n, R), w, h)  # (h, w)
+
+
+def _separable(v: Any, rows: int, cols: int, taps: Taps, n: int, R: int, size: tuple[int, int]):
+    """``sum_{kx, ky} w_kx w_ky v[(j + R) n + ky, (i + R) n + kx]`` for every pixel ``(i, j)``
+    of a ``size = (W, H)`` image, from the (rows, cols) samples ``v``."""
+    w, h = size
+    return dr.custom(_Separable, v, rows, cols, w, h, taps, n, R)
+
+
+#: The four links of a sample: to its right, left, lower and upper neighbour.
+DIRECTIONS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+
+
+@dataclass
+class _Links:
+    """The sample grid's detached data that decides where its links cross a discontinuity."""
+
+    f: list[Any]  # the features, detached
+    oid: Any
+    valid: Any
+    z: Any
+    n: Any  # normals
+    rows: int
+    cols: int
+    jump: float  # the inverse-depth step that is a discontinuity
+    spp: int  # samples per pixel along an axis (1 / h)
+
+    def direction(self, dx: int, dy: int) -> tuple[Any, Any, Any, list[Any]]:
+        """For the link from each sample to its neighbour ``(dx, dy)``: the neighbour's index,
+        whether this sample is the front one, the weight ``m`` (``h^-1 / 2`` where the link is
+        a discontinuity, else 0) and ``f_front - f_back`` per feature."""
+        idx = dr.arange(mi.Int32, self.rows * self.cols)
+        col, row = idx % self.cols, idx // self.cols
+        inside = (col + dx >= 0) & (col + dx < self.cols) & (row + dy >= 0) & (row + dy < self.rows)
+        b = mi.UInt32(
+            dr.clip(row + dy, 0, self.rows - 1) * self.cols + dr.clip(col + dx, 0, self.cols - 1)
+        )
+        gb = lambda v, t=mi.Float: dr.gather(t, v, b)  # noqa: E731
+        vb = gb(self.valid, mi.Bool)
+        step = self.oid != gb(self.oid, mi.UInt32)
+        step |= dr.abs(self.f[ID_DIMS] - gb(self.f[ID_DIMS])) > self.jump
+        cos = sum(self.n[i] * gb(self.n[i]) for i in range(3))
+        step |= self.valid & vb & (cos < CREASE_COS)
+        front = self.z <= gb(self.z)
+        m = dr.select(inside & step & (self.valid | vb), 0.5 * self.spp, 0.0)
+        jumps = [dr.select(front, f - gb(f), gb(f) - f) for f in self.f]
+        return b, front, m, jumps
+
+
+class _Flux(dr.CustomOp):
+    """The boundary term (module docstring) of every feature at every sample: linear in the
+    samples' image velocities ``(ux, uy)``, with a backward pass of gathers (Dr.Jit's own would
+    be a scatter-add per link and feature)."""
+
+    def eval(self, ux: Any, uy: Any, links: _Links) -> list[Any]:
+        self.links = links
+        return self._apply(ux, uy)
+
+    def _apply(self, ux: Any, uy: Any) -> list[Any]:
+        out = [mi.Float(0.0) for _ in self.links.f]
+        for dx, dy in DIRECTIONS:
+            b, front, m, jumps = self.links.direction(dx, dy)
+            ue = (ux if dx else uy) * (dx + dy)  # u . e for e the unit step from here to there
+            u = dr.select(front, ue, -dr.gather(mi.Float, ue, b)) * m
+            out = [o + j * u for o, j in zip(out, jumps, strict=True)]
+        dr.eval(out)
+        return out
+
+    def forward(self) -> None:
+        self.set_grad_out(self._apply(self.grad_in("ux"), self.grad_in("uy")))
+
+    def backward(self) -> None:
+        g = self.grad_out()
+        lk = self.links
+        gx, gy = mi.Float(0.0), mi.Float(0.0)
+        idx = dr.arange(mi.Int32, lk.rows * lk.cols)
+        col, row = idx % lk.cols, idx // lk.cols
+        for dx, dy in DIRECTIONS:
+            _, front, m, jumps = lk.direction(dx, dy)
+            G = m * (dx + dy) * sum(j * gc for j, gc in zip(jumps, g, strict=True))
+            own = dr.select(front, G, 0.0)  # this sample is the front: its own velocity
+            other = dr.select(front, 0.0, -G)  # the neighbour is: its velocity, read there
+            dr.eval(own, other)
+            # the samples whose link in this direction ends here
+            sx, sy = col - dx, row - dy
+            ok = (sx >= 0) & (sx < lk.cols) & (sy >= 0) & (sy < lk.rows)
+            src = mi.UInt32(dr.clip(sy, 0, lk.rows - 1) * lk.cols + dr.clip(sx, 0, lk.cols - 1))
+            total = own + dr.gather(mi.Float, other, src, ok)
+            if dx:
+                gx += total
+            else:
+                gy += total
+        self.set_grad_in("ux", gx)
+        self.set_grad_in("uy", gy)
+
+    def name(self) -> str:
+        return "boundary flux"
+
+
+def _check(name: str, value: Any, ok: bool, rule: str) -> None:
+    if not ok:
+        raise ParameterError(f"{name} = {value!r}: {rule}")
+
+
+def soft_lines(
+    scene: mi.Scene,
+    camera: Pinhole | mi.Sensor | None = None,
+    size: tuple[int, int] | None = None,
+    *,
+    n: int = 4,
+    sigma: float = 0.5,
+    kappa: float = 0.1,
+    depth_weight: float = 1.0,
+    normal_weight: float = 0.5,
+    depth_scale: float | None = None,
+) -> mi.TensorXf:
+    """The differentiable line image (H, W) of ``scene`` seen by ``camera`` (a :class:`Pinhole`,
+    a perspective sensor, or ``None``: the scene's first sensor) at ``size = (W, H)`` (the
+    sensor's film by default); module docstring for the definition and the gradient terms.
+
+    ``n`` samples per pixel along each axis, ``sigma`` the filter's standard deviation (pixels),
+    ``kappa`` the variance of full ink, ``depth_weight`` / ``normal_weight`` the weights of the
+    depth and normal features against the id feature, ``depth_scale`` the length that makes
+    depths unitless (the scene's bounding-box diagonal by default; keep it fixed while a
+    parameter that moves the box is optimised)."""
+    require_jit("soft_lines")
+    sensor = scene.sensors()[0] if camera is None and scene.sensors() else None
+    if isinstance(camera, mi.Sensor):
+        sensor = camera
+    if size is None:
+        if sensor is None:
+            raise ParameterError("soft_lines: give size=(W, H) for a camera without a sensor")
+        size = film_size(sensor)
+    cam = camera if isinstance(camera, Pinhole) else Pinhole.of_sensor(sensor)
+    _check("n", n, isinstance(n, int) and 1 <= n <= 16, "expected an integer in [1, 16]")
+    for name, v in (("sigma", sigma), ("kappa", kappa)):
+        _check(name, v, isinstance(v, (int, float)) and 0 < v < math.inf, "must be > 0")
+    if depth_scale is None:
+        bb = scene.bbox()
+        depth_scale = float(dr.norm(bb.max - bb.min)) if bb.valid() else 1.0
+    w, h = (int(v) for v in size)
+    R = max(1, math.ceil(3.0 * sigma))
+    cols, rows = (w + 2 * R) * n, (h + 2 * R) * n
+    idx = dr.arange(mi.UInt32, rows * cols)
+    x = (mi.Float(idx % cols) + 0.5) / n - R
+    y = (mi.Float(idx // cols) + 0.5) / n - R
+    ray = cam.rays(x, y, (w, h))
+    pi = scene.ray_intersect_preliminary(dr.detach(ray), coherent=True)
+    valid = pi.is_valid()
+    si = pi.compute_surface_interaction(ray, mi.RayFlags.All, valid)  # interior: attached ray
+    oid = object_table(scene).lookup(pi)
+    # Misses get a finite stand-in point, or their zero gradients would meet infinities.
+    p = dr.select(valid, si.p, cam.origin + cam.forward)
+    z = dr.select(valid, dr.dot(p - cam.origin, cam.forward), dr.inf)
+    nrm = si.sh_frame.n
+    # Weighted by cos^2 of the view angle: the normal turns infinitely fast at a smooth
+    # silhouette, cos^2 n does not, so the samples' interior derivatives stay bounded there.
+    cos = dr.dot(nrm, ray.d)
+    nrm_w = nrm * (cos * cos)
+    feats = _id_features(oid)
+    feats.append(dr.select(valid, depth_weight * depth_scale / dr.select(valid, z, 1.0), 0.0))
+    feats += [dr.select(valid, normal_weight * nrm_w[i], 0.0) for i in range(3)]
+    feats.append(sum(f * f for f in feats))  # |f|^2, filtered into F2
+
+    # The boundary term: the image velocity of the front sample's material point.
+    moving = pi.compute_surface_interaction(
+        dr.detach(ray), mi.RayFlags.All | mi.RayFlags.FollowShape, valid
+    )
+    px, py = cam.project(dr.select(valid, moving.p, cam.origin + cam.forward), (w, h))
+    ux, uy = px - dr.detach(px), py - dr.detach(py)  # 0, with the velocity as derivative
+    fd = [dr.detach(f) for f in feats]
+    dr.eval(feats, ux, uy, oid, valid)  # smaller kernels compile much faster than one
+    zd, nd = dr.detach(z), dr.detach(nrm)
+
+    links = _Links(fd, oid, valid, zd, nd, rows, cols, 0.05 * depth_weight, n)
+    flux = dr.custom(_Flux, ux, uy, links)
+    ts = _taps(n, R, sigma)
+    F = [_separable(f + q, rows, cols, ts, n, R, (w, h)) for f, q in zip(feats, flux, strict=True)]
+    var = dr.maximum(F[-1] - sum(f * f for f in F[:-1]), 0.0)
+    return mi.TensorXf(1.0 - dr.exp(-var / kappa), shape=(h, w))
