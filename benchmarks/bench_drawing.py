@@ -400,7 +400,7 @@ def ours(xml: Path, repeat: int) -> dict:
             dr.sync_thread()
             return ink
 
-        out[n] = run()
+        out[n] = np.asarray(run(), np.float32)
         samples = []
         for _ in range(repeat):
             t0 = time.perf_counter()

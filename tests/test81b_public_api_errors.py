@@ -239,10 +239,6 @@ WALKED = _walkable()
 #: Calls that still raise foreign exceptions, in modules other work is rewriting now; strict:
 #: each entry fails the suite once its module is fixed, so the list only shrinks.
 PENDING = {
-    "mi_npr.ad.losses.blur",
-    "mi_npr.ad.losses.blurred_l2",
-    "mi_npr.ad.losses.chamfer",
-    "mi_npr.ad.losses.read_drawing",
     "mi_npr.dataset.check_mesh",
     "mi_npr.dataset.find_meshes",
     "mi_npr.dataset.make_dataset",

@@ -15,7 +15,7 @@ import numpy as np
 from PIL import Image, ImageDraw, UnidentifiedImageError
 from scipy.ndimage import distance_transform_edt
 
-from ..errors import InputError, ParameterError, check_input_file
+from ..errors import InputError, ParameterError, as_path, check_input_file, shown
 
 #: Standard deviations (pixels) of :func:`blurred_l2`'s Gaussians by default.
 SCALES = (1.0, 2.0, 4.0, 8.0, 16.0)
@@ -23,11 +23,18 @@ SCALES = (1.0, 2.0, 4.0, 8.0, 16.0)
 
 def _flat(image: Any, name: str) -> tuple[Any, tuple[int, int]]:
     """An (H, W) image as a flat ``mi.Float`` (a Dr.Jit tensor keeps its AD graph)."""
+    if image is None:
+        raise ParameterError(f"{name} = None: expected an (H, W) image (array or Dr.Jit tensor)")
     if dr.is_tensor_v(image) and dr.is_jit_v(image):
         shape = tuple(int(v) for v in image.shape)
         flat = mi.Float(image.array)
     else:
-        a = np.asarray(image, np.float32)
+        try:
+            a = np.asarray(image, np.float32)
+        except (TypeError, ValueError):
+            raise ParameterError(
+                f"{name} = {shown(image)}: expected an (H, W) image (array or Dr.Jit tensor)"
+            ) from None
         shape = a.shape
         flat = mi.Float(np.ascontiguousarray(a).reshape(-1))
     if len(shape) != 2 or min(shape) < 1:
@@ -76,7 +83,12 @@ def blur(image: Any, sigma: float) -> mi.TensorXf:
 
 
 def _target(target: Any, shape: tuple[int, int]) -> np.ndarray:
-    t = np.asarray(target, np.float32)
+    try:
+        t = np.asarray(target, np.float32)
+    except (TypeError, ValueError):
+        raise ParameterError(
+            f"target = {shown(target)}: expected an (H, W) drawing (read_drawing reads a file)"
+        ) from None
     if t.shape != shape:
         raise ParameterError(
             f"the drawing is {t.shape[-1] if t.ndim else '?'}x{t.shape[0] if t.ndim else '?'}, "
@@ -165,7 +177,7 @@ def read_drawing(path: str | os.PathLike[str]) -> np.ndarray:
     dark ink on light paper, ``1 - luminance`` (a transparent pixel is paper), or an SVG of
     straight paths. A missing or unreadable file is an :class:`~mi_npr.errors.InputError`
     naming it."""
-    name = os.fspath(path)
+    name = os.fspath(as_path(path, "read_drawing: path"))
     check_input_file(name, InputError)
     if name.lower().endswith(".svg"):
         return _svg_ink(name)

@@ -60,7 +60,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, shown
+from ..params import MAX_RES
 from ..raycast import film_size, require_jit
 from ..scene import object_table
 
@@ -321,7 +322,26 @@ class _Flux(dr.CustomOp):
 
 def _check(name: str, value: Any, ok: bool, rule: str) -> None:
     if not ok:
-        raise ParameterError(f"{name} = {value!r}: {rule}")
+        raise ParameterError(f"{name} = {shown(value)}: {rule}")
+
+
+def _int(v: Any) -> bool:
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+
+def _real(v: Any) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+
+
+def _size(size: Any) -> tuple[int, int]:
+    """``size = (W, H)``, two integers in [1, MAX_RES], or a :class:`ParameterError`."""
+    ok = (
+        isinstance(size, (tuple, list))
+        and len(size) == 2
+        and all(_int(v) and 1 <= v <= MAX_RES for v in size)
+    )
+    _check("size", size, ok, f"expected (W, H), two integers in [1, {MAX_RES}]")
+    return int(size[0]), int(size[1])
 
 
 def soft_lines(
@@ -353,10 +373,20 @@ def soft_lines(
         if sensor is None:
             raise ParameterError("soft_lines: give size=(W, H) for a camera without a sensor")
         size = film_size(sensor)
+    size = _size(size)
     cam = camera if isinstance(camera, Pinhole) else Pinhole.of_sensor(sensor)
-    _check("n", n, isinstance(n, int) and 1 <= n <= 16, "expected an integer in [1, 16]")
+    _check("n", n, _int(n) and 1 <= n <= 16, "expected an integer in [1, 16]")
     for name, v in (("sigma", sigma), ("kappa", kappa)):
-        _check(name, v, isinstance(v, (int, float)) and 0 < v < math.inf, "must be > 0")
+        _check(name, v, _real(v) and 0 < v < math.inf, "must be a finite number > 0")
+    for name, v in (("depth_weight", depth_weight), ("normal_weight", normal_weight)):
+        _check(name, v, _real(v) and 0 <= v < math.inf, "must be a finite number >= 0")
+    if depth_scale is not None:
+        _check(
+            "depth_scale",
+            depth_scale,
+            _real(depth_scale) and 0 < depth_scale < math.inf,
+            "must be a finite number > 0",
+        )
     if depth_scale is None:
         bb = scene.bbox()
         depth_scale = float(dr.norm(bb.max - bb.min)) if bb.valid() else 1.0
