@@ -22,6 +22,7 @@ vertex (the last vertex of an open stroke: of the edge that arrives).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping
 from typing import Any
 
@@ -31,7 +32,7 @@ import numpy as np
 from ..gbuffer import Projection
 from ..raycast import cast, film_grid, pixel_rays
 from ..scene import ObjectTable, object_table
-from .chain import chain_pieces
+from .chain import chain_order
 from .edges import FeatureEdges, Projector, feature_edges
 from .model import KINDS, Stroke, Strokes
 from .outlines import normals_2d, outline_strokes, probe
@@ -81,8 +82,9 @@ class _Pieces:
         def state_at(idx: np.ndarray, uu: np.ndarray) -> np.ndarray:
             s = _film_param_to_3d(uu, wa[idx], wb[idx])
             p = A[idx] + s[:, None] * (B[idx] - A[idx])
+            # counted to max_qi + 1: the pieces beyond max_qi are told apart, then dropped
             qi, glass = quantitative_invisibility(
-                scene, table, proj.origin, p, edges.faces[e[idx]], max_qi
+                scene, table, proj.origin, p, edges.faces[e[idx]], max_qi + 1
             )
             return qi.astype(np.int64) * 2 + glass
 
@@ -125,7 +127,6 @@ class _Pieces:
         last = np.append(pe[1:] != pe[:-1], True)
         u1[last] = 1.0
         first_of = np.append(True, pe[1:] != pe[:-1])
-        self.state = st
         # nodes: welded vertices at unclipped ends, fresh ids elsewhere; the two pieces of a
         # change share a node (their states differ: a point where two strokes meet, unchained)
         fresh = int(max(edges.va.max(initial=-1), edges.vb.max(initial=-1))) + 1
@@ -134,6 +135,9 @@ class _Pieces:
         node0 = np.where(first_of & (lo[e][pe] == 0), edges.va[e][pe], node0)
         clipped = -1 - np.arange(len(pe))  # an end on the image frame: its own node
         node1 = np.where(last, np.where(hi[e][pe] == 1, edges.vb[e][pe], clipped), node1)
+        shown = st // 2 <= max_qi
+        pe, u0, u1, st, node0, node1 = (x[shown] for x in (pe, u0, u1, st, node0, node1))
+        self.state = st
         s0 = _film_param_to_3d(u0, wa[pe], wb[pe])
         s1 = _film_param_to_3d(u1, wa[pe], wb[pe])
         self.p0 = A[pe] + s0[:, None] * (B[pe] - A[pe])
@@ -154,7 +158,7 @@ def _mesh_strokes(pieces: _Pieces, chain_angle: float) -> list[Stroke]:
         return []
     n_states = int(pieces.state.max()) + 1
     cls = pieces.kind * n_states + pieces.state
-    chains = chain_pieces(
+    piece, rev, start, closed = chain_order(
         pieces.node0,
         pieces.node1,
         cls,
@@ -162,41 +166,48 @@ def _mesh_strokes(pieces: _Pieces, chain_angle: float) -> list[Stroke]:
         pieces.xy0 - pieces.xy1,
         chain_angle,
     )
-    out = []
-    for steps, closed in chains:
-        p_idx = np.array([p for p, _ in steps])
-        rev = np.array([r for _, r in steps])
-        start_xy = np.where(rev[:, None], pieces.xy1[p_idx], pieces.xy0[p_idx])
-        end_xy = np.where(rev[:, None], pieces.xy0[p_idx], pieces.xy1[p_idx])
-        start_p = np.where(rev[:, None], pieces.p1[p_idx], pieces.p0[p_idx])
-        end_p = np.where(rev[:, None], pieces.p0[p_idx], pieces.p1[p_idx])
-        start_d = np.where(rev, pieces.d1[p_idx], pieces.d0[p_idx])
-        end_d = np.where(rev, pieces.d0[p_idx], pieces.d1[p_idx])
-        oid, prim = pieces.object_id[p_idx], pieces.prim[p_idx]
-        if closed:
-            xy, pos, dep = start_xy, start_p, start_d
-            v_oid, v_prim = oid, prim
-        else:
-            xy = np.concatenate([start_xy, end_xy[-1:]])
-            pos = np.concatenate([start_p, end_p[-1:]])
-            dep = np.concatenate([start_d, end_d[-1:]])
-            v_oid = np.append(oid, oid[-1])
-            v_prim = np.append(prim, prim[-1])
-        st = int(pieces.state[p_idx[0]])
-        out.append(
-            Stroke(
-                kind=KINDS[int(pieces.kind[p_idx[0]])],
-                points=xy,
-                position=pos,
-                depth=dep,
-                object_id=v_oid,
-                prim=v_prim,
-                qi=st // 2,
-                through_glass=bool(st % 2),
-                closed=closed and len(xy) >= 3,
-            )
+    # every chain's vertices in one set of arrays: the start of each piece as walked, and
+    # for an open chain the end of its last piece (with that piece's object and primitive)
+    count = np.diff(start)
+    size = count + ~closed
+    first = np.concatenate([[0], np.cumsum(size)[:-1]])
+    chain = np.repeat(np.arange(len(count)), count)
+    at = first[chain] + np.arange(len(piece)) - start[chain]
+    last = start[1:][~closed] - 1
+    end_at = first[~closed] + count[~closed]
+    total = int(size.sum())
+
+    def gather(a0: np.ndarray, a1: np.ndarray) -> np.ndarray:
+        out = np.empty((total, *a0.shape[1:]), a0.dtype)
+        r = rev.reshape(-1, *([1] * (a0.ndim - 1)))
+        out[at] = np.where(r, a1[piece], a0[piece])
+        out[end_at] = np.where(r[last], a0[piece[last]], a1[piece[last]])
+        return out
+
+    xy = gather(pieces.xy0, pieces.xy1)
+    pos = gather(pieces.p0, pieces.p1)
+    dep = gather(pieces.d0, pieces.d1)
+    oid = gather(pieces.object_id, pieces.object_id)
+    prim = gather(pieces.prim, pieces.prim)
+    head = piece[start[:-1]]
+    st = pieces.state[head].tolist()
+    kinds = pieces.kind[head].tolist()
+    ring = (closed & (size >= 3)).tolist()
+    bounds = np.append(first, total).tolist()
+    return [
+        Stroke(
+            kind=KINDS[kinds[c]],
+            points=xy[a:b],
+            position=pos[a:b],
+            depth=dep[a:b],
+            object_id=oid[a:b],
+            prim=prim[a:b],
+            qi=st[c] // 2,
+            through_glass=bool(st[c] % 2),
+            closed=ring[c],
         )
-    return out
+        for c, (a, b) in enumerate(itertools.pairwise(bounds))
+    ]
 
 
 def cast_depth_range(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable) -> tuple[float, float]:
