@@ -26,6 +26,7 @@ import itertools
 from collections.abc import Mapping
 from typing import Any
 
+import drjit as dr
 import mitsuba as mi
 import numpy as np
 
@@ -35,8 +36,8 @@ from ..scene import ObjectTable, object_table
 from .chain import chain_order
 from .edges import FeatureEdges, Projector, feature_edges
 from .model import KINDS, Stroke, Strokes
-from .outlines import normals_2d, outline_strokes, probe
-from .visibility import quantitative_invisibility
+from .outlines import outline_strokes
+from .visibility import SegmentVisibility, first_opaque_hit, jit_array
 
 #: Film distance between visibility samples along an edge, in pixels.
 SPACING = 0.5
@@ -79,13 +80,13 @@ class _Pieces:
         k = np.arange(len(owner)) - first[owner]
         u = k / (count[owner] - 1)
 
+        # counted to max_qi + 1: the pieces beyond max_qi are told apart, then dropped
+        rays = SegmentVisibility(
+            scene, table, proj.origin, A, B, wa, wb, edges.faces[e], max_qi + 1
+        )
+
         def state_at(idx: np.ndarray, uu: np.ndarray) -> np.ndarray:
-            s = _film_param_to_3d(uu, wa[idx], wb[idx])
-            p = A[idx] + s[:, None] * (B[idx] - A[idx])
-            # counted to max_qi + 1: the pieces beyond max_qi are told apart, then dropped
-            qi, glass = quantitative_invisibility(
-                scene, table, proj.origin, p, edges.faces[e[idx]], max_qi + 1
-            )
+            qi, glass = rays.at(idx, uu)
             return qi.astype(np.int64) * 2 + glass
 
         state = state_at(owner, u)
@@ -254,6 +255,42 @@ def resampled(stroke: Stroke, spacing: float) -> Stroke:
     )
 
 
+def _normals(points: np.ndarray, size: np.ndarray, closed: np.ndarray) -> np.ndarray:
+    """:func:`~mi_npr.strokes.outlines.normals_2d` of many polylines at once: ``points``
+    (M, 2) their vertices one after the other, ``size`` and ``closed`` (S,) each one's."""
+    first = np.concatenate([[0], np.cumsum(size)[:-1]])
+    last = first + size - 1
+    owner = np.repeat(np.arange(len(size)), size)
+    i = np.arange(len(points))
+    ring = closed[owner]
+    # the neighbours of a vertex; past an end: the other end (closed), the vertex (open)
+    nxt = np.where(i == last[owner], np.where(ring, first[owner], i), i + 1)
+    prv = np.where(i == first[owner], np.where(ring, last[owner], i), i - 1)
+    t = points[nxt] - points[prv]
+    length = np.hypot(t[:, 0], t[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(length[:, None] > 0, t / length[:, None], 0.0)
+    return np.stack([-u[:, 1], u[:, 0]], -1)
+
+
+def _depth_seen(
+    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, xy: np.ndarray, camera: Projection
+) -> np.ndarray:
+    """The depth (N,) of the first opaque surface seen through film positions ``xy`` (N, 2)
+    (:func:`~mi_npr.strokes.outlines.probe`'s ``depth``, +inf on a miss), from the hits'
+    positions alone."""
+    ray = pixel_rays(
+        sensor,
+        jit_array(mi.Float, xy[:, 0].astype(np.float32)),
+        jit_array(mi.Float, xy[:, 1].astype(np.float32)),
+    )
+    si, _, hit, _ = first_opaque_hit(scene, table, ray, mi.RayFlags.Minimal)
+    dr.eval(si.p, hit)
+    hit_np = np.asarray(hit.numpy(), bool)
+    p = np.stack([np.asarray(c.numpy(), np.float64) for c in (si.p.x, si.p.y, si.p.z)], -1)
+    return np.where(hit_np, (p - camera.origin) @ camera.forward, np.inf)
+
+
 def _add_depth_behind(
     scene: mi.Scene,
     sensor: mi.Sensor,
@@ -263,15 +300,14 @@ def _add_depth_behind(
 ) -> None:
     if not strokes:
         return
+    size = np.array([len(s) for s in strokes])
     pts = np.concatenate([s.points for s in strokes])
-    nrm = np.concatenate([normals_2d(s.points, s.closed) for s in strokes])
-    a = probe(scene, sensor, table, pts + BESIDE * nrm, camera)["depth"]
-    b = probe(scene, sensor, table, pts - BESIDE * nrm, camera)["depth"]
-    behind = np.maximum(a, b)
-    i = 0
-    for s in strokes:
-        s.depth_behind = behind[i : i + len(s)]
-        i += len(s)
+    nrm = _normals(pts, size, np.array([s.closed for s in strokes]))
+    side = np.concatenate([pts + BESIDE * nrm, pts - BESIDE * nrm])
+    depth = _depth_seen(scene, sensor, table, side, camera)
+    behind = np.maximum(depth[: len(pts)], depth[len(pts) :])
+    for s, part in zip(strokes, np.split(behind, np.cumsum(size)[:-1]), strict=True):
+        s.depth_behind = part
 
 
 def extract_strokes(
