@@ -235,6 +235,8 @@ def first_opaque_hit(
     hit = si.is_valid()
     is_glass, invisible = _surface(si, hit)
     passing = is_glass | invisible
+    # one kernel: testing ``passing`` alone would trace the rays again for ``si`` afterwards
+    dr.eval(si, hit, passing)
     for _ in range(MAX_PASSES):
         if not dr.any(passing):
             break
