@@ -224,3 +224,19 @@ def test07_a_sphere_in_front_of_another_owns_their_shared_outline(tmp_path):
     # and none of the far stroke runs along the near outline
     inside = seg_distance(far[0].points, rings["near"][:-1], rings["near"][1:]) < 0.25
     assert inside.sum() <= 2
+
+
+def test08_max_qi_leaves_out_what_lies_deeper(tmp_path):
+    """Strokes behind more than ``max_qi`` surfaces are left out, the others are unchanged:
+    the wall's top border passes behind the box and the ball (qi 2, each a closed solid)."""
+    scene = load(tmp_path, WALL + BOX + BALL)
+    full = extract_strokes(scene, scene.sensors()[0])
+    key = lambda s: (s.kind, s.qi, s.through_glass, np.round(s.points, 6).tobytes())  # noqa: E731
+    assert {s.qi for s in full} == {0, 1, 2}
+    for max_qi in (1, 2):
+        cut = extract_strokes(scene, scene.sensors()[0], max_qi=max_qi)
+        assert sorted(map(key, cut)) == sorted(key(s) for s in full if s.qi <= max_qi)
+    # the drawing's default keeps an object's own back edges (qi 1), not what lies behind it
+    from mi_npr.drawings import DRAWINGS
+
+    assert DRAWINGS["strokes"].values({})["max_qi"] == 1

@@ -7,7 +7,8 @@
    ``through_glass`` (:mod:`mi_npr.strokes.visibility`), is cast. Where two neighbouring
    samples differ, the change is found by ``ITERATIONS`` bisections along the edge (to
    ``SPACING / 2**ITERATIONS`` px) and the edge is split there. A change that starts and ends
-   between two samples (an occluder thinner than ``SPACING`` px) is missed.
+   between two samples (an occluder thinner than ``SPACING`` px) is missed. The pieces
+   behind more than ``max_qi`` surfaces are then dropped (the rays count to ``max_qi + 1``).
 3. **Chaining** of the pieces (:mod:`mi_npr.strokes.chain`), per kind and visibility state.
 4. The outlines of the shapes that are not meshes (:mod:`mi_npr.strokes.outlines`).
 5. Optionally (``resample``) more vertices along long segments, then per vertex the depth
@@ -327,7 +328,10 @@ def extract_strokes(
     object table (built if not given); ``depth_range``: the frame's nearest and farthest finite
     depth (default: :func:`cast_depth_range`); ``resample``: the longest segment on the film, in
     pixels (:func:`resampled`; ``None``: vertices only where the geometry turns), so that
-    per-vertex attributes such as ``depth_behind`` are sampled along straight edges too."""
+    per-vertex attributes such as ``depth_behind`` are sampled along straight edges too;
+    ``max_qi``: the parts of mesh edges behind more than ``max_qi`` surfaces are left out (the
+    visibility rays stop counting there, which is what makes hidden lines affordable on a
+    large model, where most edges lie deep inside it)."""
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
     camera = proj.camera
