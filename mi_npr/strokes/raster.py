@@ -208,6 +208,8 @@ def _coverage(
     n = np.concatenate([x[2] for x in parts])
     k = np.concatenate([x[3] for x in parts])
     who, idx, cov = _capsules(p, v[:, 0] / 2.0, v[:, 1], n, width, height)
+    if not len(idx):
+        return z, z, np.zeros(0)
     # the pieces of one stroke (its dashes) cover a pixel once, with their largest coverage
     stroke = k[who]
     order = np.lexsort((-cov, idx, stroke))
