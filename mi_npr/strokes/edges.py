@@ -144,8 +144,8 @@ def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
 @dataclass(eq=False)
 class Topology:
     """What of the feature edges does not depend on the camera: the triangle soup
-    (:func:`mesh_arrays`), its face normals (unnormalised ``nrm``; ``unit`` and the planes'
-    offsets ``offset = unit . p0``, 0 for a degenerate face), the welded vertices (their first
+    (:func:`mesh_arrays`), its unit face normals ``unit`` (0 for a degenerate face) and the
+    planes' offsets ``offset = unit . p0``, the welded vertices (their first
     occurrence's position ``welded``), and per welded edge ``E``: its ends ``keys`` (E, 2), its
     face count ``counts``, its first two faces ``f0``, ``f1`` (``f1 = f0`` with one face),
     ``flip`` (the two faces wind the edge the same way: ``f1``'s normal is turned for it) and
@@ -157,7 +157,6 @@ class Topology:
     f: np.ndarray
     face_oid: np.ndarray
     face_prim: np.ndarray
-    nrm: np.ndarray
     unit: np.ndarray
     offset: np.ndarray
     size: float
@@ -177,54 +176,71 @@ class Topology:
         """The topology of a triangle soup (class docstring)."""
         if len(f) == 0:
             z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
+            zi = z.astype(np.int32)
             return cls(
                 v,
                 f,
                 z,
                 z,
                 z3,
-                z3,
                 z[:0] * 0.0,
                 1.0,
                 z3,
-                np.zeros((0, 2), np.int64),
-                z,
-                z,
-                z,
+                np.zeros((0, 2), np.int32),
+                zi,
+                zi,
+                zi,
                 z.astype(bool),
                 z * 0.0,
             )
         size = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
         wid = weld(v, WELD * size)
-        fw = wid[f]  # welded corners (F, 3)
-        # half-edges (from, to) and their face; one sort of a 64-bit key groups each edge's
+        n_welded = int(wid.max()) + 1
+        # half-edges (from, to) and their face, in 32 bits (memory: 3 per face); one sort of
+        # a 64-bit key groups each edge's
+        fw = wid.astype(np.int32)[f]  # welded corners (F, 3)
         hu = fw.reshape(-1)
         hv = fw[:, [1, 2, 0]].reshape(-1)
-        hface = np.repeat(np.arange(len(f)), 3)
+        hface = np.repeat(np.arange(len(f), dtype=np.int32), 3)
+        del fw
         ok = hu != hv  # a face collapsed by welding has no edge there
-        hu, hv, hface = hu[ok], hv[ok], hface[ok]
-        lo, hi = np.minimum(hu, hv), np.maximum(hu, hv)
+        if not ok.all():
+            hu, hv, hface = hu[ok], hv[ok], hface[ok]
+        del ok
         forward = hu < hv
-        n_welded = int(wid.max()) + 1
-        key = lo * n_welded + hi
+        lo, hi = np.minimum(hu, hv), np.maximum(hu, hv)
+        del hu, hv
+        key = lo.astype(np.int64) * n_welded + hi
         order = np.argsort(key, kind="stable")
         key = key[order]
         head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
-        counts = np.diff(np.append(head, len(key)))
+        del key
+        counts = np.diff(np.append(head, len(order))).astype(np.int32)
         h0 = order[head]
-        h1 = order[np.minimum(head + 1, len(order) - 1)]
-        h1 = np.where(counts >= 2, h1, h0)
-        f0, f1 = hface[h0].astype(np.int32), hface[h1].astype(np.int32)
+        h1 = np.where(counts >= 2, order[np.minimum(head + 1, len(order) - 1)], h0)
+        del order, head
+        f0, f1 = hface[h0], hface[h1]
         flip = forward[h0] == forward[h1]
         keys = np.stack([lo[h0], hi[h0]], 1)
-        p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-        nrm = np.cross(p1 - p0, p2 - p0)
-        length = np.linalg.norm(nrm, axis=1)
-        unit = nrm / np.where(length > 0, length, np.inf)[:, None]
-        offset = np.einsum("ij,ij->i", unit, p0)
-        n1 = np.where(flip[:, None], -unit[f1], unit[f1])
-        cos_n = np.einsum("ij,ij->i", unit[f0], n1)
-        cos_n[(length[f0] == 0) | (length[f1] == 0)] = 1.0
+        del hface, forward, lo, hi, h0, h1
+        # unit normals and plane offsets, a block of faces at a time (bounded temporaries)
+        unit = np.empty((len(f), 3))
+        offset = np.empty(len(f))
+        for c in range(0, len(f), 1 << 20):
+            fc = f[c : c + (1 << 20)]
+            p0 = v[fc[:, 0]]
+            n = np.cross(v[fc[:, 1]] - p0, v[fc[:, 2]] - p0)
+            length = np.linalg.norm(n, axis=1)
+            unit[c : c + len(fc)] = n / np.where(length > 0, length, np.inf)[:, None]
+            offset[c : c + len(fc)] = np.einsum("ij,ij->i", unit[c : c + len(fc)], p0)
+        # cos of the (turned) normals, a column at a time; a degenerate face: 1 (no crease)
+        cos_n = np.zeros(len(f0))
+        for k in range(3):
+            col = unit[:, k]
+            cos_n += col[f0] * col[f1]
+        cos_n = np.where(flip, -cos_n, cos_n)
+        degenerate = ~np.any(unit != 0, axis=1)
+        cos_n[degenerate[f0] | degenerate[f1]] = 1.0
         rep = np.zeros(n_welded, np.int64)
         rep[wid[::-1]] = np.arange(len(wid))[::-1]
         return cls(
@@ -232,7 +248,6 @@ class Topology:
             f,
             face_oid,
             face_prim,
-            nrm,
             unit,
             offset,
             size,
