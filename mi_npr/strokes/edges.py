@@ -5,7 +5,9 @@
 and faces. Vertices of *all* meshes closer than ``1e-6`` of the scene's size
 are welded into one (a mesh split at UV seams, or two objects that share an edge, such as a
 room's floor and wall); an edge is a pair of welded vertices, its faces the triangles that use
-it. Building it costs ``O(F log F)`` for ``F`` triangles.
+it. Building it costs ``O(F log F)`` for ``F`` triangles; it does not depend on the camera,
+so it is built once per scene (:func:`topology`, with the intersection lines) and each view
+only classifies the edges (``O(E)`` array operations).
 
 **Kinds** (``mi_npr.strokes.KINDS``), one per edge, the first that applies:
 
