@@ -228,32 +228,66 @@ def resampled(stroke: Stroke, spacing: float) -> Stroke:
     px on the film: film positions evenly along each segment, world positions and depths
     perspective-correct (exact on a straight 3-D segment), object and primitive those of the
     segment's first vertex."""
-    p = stroke.points
-    n = len(p)
-    if n < 2:
-        return stroke
-    ends = np.arange(n) if stroke.closed else np.arange(n - 1)
-    nxt = (ends + 1) % n
+    return resampled_all([stroke], spacing)[0]
+
+
+def resampled_all(strokes: list[Stroke], spacing: float) -> list[Stroke]:
+    """:func:`resampled` of every stroke, as array operations over all their vertices."""
+    size = np.array([len(s) for s in strokes], np.int64)
+    todo = [i for i, s in enumerate(strokes) if len(s) >= 2]
+    out = list(strokes)
+    if not todo:
+        return out
+    sub = [strokes[i] for i in todo]
+    n = size[todo]
+    closed = np.array([s.closed for s in sub])
+    p = np.concatenate([s.points for s in sub])
+    pos = np.concatenate([s.position for s in sub])
+    dep = np.concatenate([s.depth for s in sub])
+    oid = np.concatenate([s.object_id for s in sub])
+    prim = np.concatenate([s.prim for s in sub])
+    first = np.concatenate([[0], np.cumsum(n)[:-1]])
+    # the segments: every vertex of a closed stroke, all but the last of an open one
+    n_seg = np.where(closed, n, n - 1)
+    seg_of = np.repeat(np.arange(len(sub)), n_seg)
+    ends = first[seg_of] + np.arange(len(seg_of)) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg)
+    nxt = np.where(ends + 1 == first[seg_of] + n[seg_of], first[seg_of], ends + 1)
     seg = np.hypot(*(p[nxt] - p[ends]).T)
     k = np.maximum(1, np.ceil(seg / spacing).astype(np.int64))
-    owner = np.repeat(ends, k)
+    owner = np.repeat(np.arange(len(ends)), k)
     u = (np.arange(len(owner)) - np.repeat(np.cumsum(k) - k, k)) / k[owner]
-    a, b = owner, nxt[owner]
-    s3 = _film_param_to_3d(u, stroke.depth[a], stroke.depth[b])
-    if not stroke.closed:  # the last vertex
-        a, b = np.append(a, n - 1), np.append(b, n - 1)
-        u, s3 = np.append(u, 0.0), np.append(s3, 0.0)
-    return Stroke(
-        kind=stroke.kind,
-        points=p[a] + u[:, None] * (p[b] - p[a]),
-        position=stroke.position[a] + s3[:, None] * (stroke.position[b] - stroke.position[a]),
-        depth=1.0 / ((1.0 - u) / stroke.depth[a] + u / stroke.depth[b]),
-        object_id=stroke.object_id[a],
-        prim=stroke.prim[a],
-        qi=stroke.qi,
-        through_glass=stroke.through_glass,
-        closed=stroke.closed,
-    )
+    a, b = ends[owner], nxt[owner]
+    # an open stroke's last vertex after its last segment's samples
+    count = np.bincount(seg_of, weights=k, minlength=len(sub)).astype(np.int64) + ~closed
+    start = np.concatenate([[0], np.cumsum(count)[:-1]])
+    total = int(count.sum())
+    A = np.empty(total, np.int64)
+    U = np.zeros(total)
+    body = np.ones(total, bool)
+    body[(start + count - 1)[~closed]] = False
+    A[body], U[body] = a, u
+    B = A.copy()
+    B[body] = b
+    A[~body] = B[~body] = (first + n - 1)[~closed]
+    s3 = _film_param_to_3d(U, dep[A], dep[B])
+    s3[~body] = 0.0
+    P = p[A] + U[:, None] * (p[B] - p[A])
+    Q = pos[A] + s3[:, None] * (pos[B] - pos[A])
+    D = 1.0 / ((1.0 - U) / dep[A] + U / dep[B])
+    for j, (i, s) in enumerate(zip(todo, sub, strict=True)):
+        r = slice(start[j], start[j] + count[j])
+        out[i] = Stroke(
+            kind=s.kind,
+            points=P[r],
+            position=Q[r],
+            depth=D[r],
+            object_id=oid[A[r]],
+            prim=prim[A[r]],
+            qi=s.qi,
+            through_glass=s.through_glass,
+            closed=s.closed,
+        )
+    return out
 
 
 def _normals(points: np.ndarray, size: np.ndarray, closed: np.ndarray) -> np.ndarray:
@@ -340,7 +374,7 @@ def extract_strokes(
     strokes += outline_strokes(scene, sensor, table, camera)
     strokes = [s for s in strokes if len(s) >= 2]
     if resample:
-        strokes = [resampled(s, resample) for s in strokes]
+        strokes = resampled_all(strokes, resample)
     _add_depth_behind(scene, sensor, table, strokes, camera)
     if depth_range is None:
         depth_range = cast_depth_range(scene, sensor, table)
