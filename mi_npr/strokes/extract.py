@@ -95,13 +95,7 @@ class _Pieces:
         ulo, uhi = u[change], u[change + 1]
         slo = state[change]
         idx = owner[change]
-        for _ in range(ITERATIONS):
-            if not len(change):
-                break
-            mid = 0.5 * (ulo + uhi)
-            same = state_at(idx, mid) == slo
-            ulo = np.where(same, mid, ulo)
-            uhi = np.where(same, uhi, mid)
+        ulo, uhi = rays.bisect(idx, ulo, uhi, slo, ITERATIONS)
         split_u = 0.5 * (ulo + uhi)
         # pieces: per edge, boundaries 0, changes..., 1 (the changes of one edge come in order
         # along it), each with the state of the samples after its start

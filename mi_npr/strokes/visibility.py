@@ -141,6 +141,61 @@ class SegmentVisibility:
         own = np.asarray(own, np.int64)
         self.own = [jit_array(mi.UInt32, own[:, k // 2, k % 2].astype(np.uint32)) for k in range(4)]
 
+    def _points(
+        self, i: mi.UInt32, u: mi.Float
+    ) -> tuple[mi.Point3f, mi.Point3f, mi.Vector3f, mi.Float, list]:
+        """Origin, point, unit direction, distance and own faces of parameter ``u`` of each
+        segment ``i`` (class docstring)."""
+        wa, wb = dr.gather(mi.Float, self.wa, i), dr.gather(mi.Float, self.wb, i)
+        s = u * wa / ((1.0 - u) * wb + u * wa)
+        p = dr.fma(dr.gather(mi.Vector3f, self.ab, i), s, dr.gather(mi.Point3f, self.a, i))
+        o = dr.gather(mi.Point3f, self.origin, dr.zeros(mi.UInt32, dr.width(i)))
+        d = p - o
+        dist = dr.norm(d)
+        return (
+            o,
+            p,
+            d / dr.select(dist > 0, dist, 1.0),
+            dist,
+            [dr.gather(mi.UInt32, x, i) for x in self.own],
+        )
+
+    def bisect(
+        self,
+        idx: np.ndarray,
+        ulo: np.ndarray,
+        uhi: np.ndarray,
+        state: np.ndarray,
+        iterations: int,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``iterations`` bisections of each interval ``[ulo, uhi]`` (N,) of segments ``idx``
+        (N,) whose state ``2 QI + through_glass`` at ``ulo`` is ``state`` (N,): the midpoint
+        replaces the end whose state it has (``ulo`` where it equals ``state``). One kernel
+        for all of them (a loop around the QI loop); the parameters in double precision, the
+        points in single, as :meth:`at`."""
+        if len(idx) == 0:
+            return np.asarray(ulo, np.float64), np.asarray(uhi, np.float64)
+        i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
+        lo = jit_array(mi.Float64, np.asarray(ulo, np.float64))
+        hi = jit_array(mi.Float64, np.asarray(uhi, np.float64))
+        target = jit_array(mi.UInt32, np.asarray(state, np.uint32))
+        step = dr.zeros(mi.UInt32, len(idx))
+        dr.make_opaque(step)
+
+        def cond(step, lo, hi):
+            return step < iterations
+
+        def body(step, lo, hi):
+            mid = 0.5 * (lo + hi)
+            o, p, d, dist, own = self._points(i, mi.Float(mid))
+            qi, glass = _qi(self.scene, self.table, o, p, d, dist, own, self.max_qi, False)
+            same = qi * 2 + dr.select(glass, 1, 0) == target
+            return step + 1, dr.select(same, mid, lo), dr.select(same, hi, mid)
+
+        _, lo, hi = dr.while_loop((step, lo, hi), cond, body, labels=("step", "lo", "hi"))
+        dr.eval(lo, hi)
+        return np.asarray(lo.numpy(), np.float64), np.asarray(hi.numpy(), np.float64)
+
     def at(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """QI (N,) int32 and ``through_glass`` (N,) bool of the points ``u`` (N,) of segments
         ``idx`` (N,) (class docstring)."""
@@ -149,14 +204,7 @@ class SegmentVisibility:
             return np.zeros(0, np.int32), np.zeros(0, bool)
         i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
         uu = jit_array(mi.Float, np.asarray(u, np.float32))
-        wa, wb = dr.gather(mi.Float, self.wa, i), dr.gather(mi.Float, self.wb, i)
-        s = uu * wa / ((1.0 - uu) * wb + uu * wa)
-        p = dr.fma(dr.gather(mi.Vector3f, self.ab, i), s, dr.gather(mi.Point3f, self.a, i))
-        o = dr.gather(mi.Point3f, self.origin, dr.zeros(mi.UInt32, n))
-        d = p - o
-        dist = dr.norm(d)
-        d = d / dr.select(dist > 0, dist, 1.0)
-        own = [dr.gather(mi.UInt32, x, i) for x in self.own]
+        o, p, d, dist, own = self._points(i, uu)
         # the inputs evaluated apart: the loop's kernel stays the same from call to call
         dr.eval(o, p, d, dist, own)
         qi, glass = _count(self.scene, self.table, o, p, d, dist, own, self.max_qi)
@@ -176,6 +224,24 @@ def _count(
     """The QI loop (module docstring) over evaluated rays from ``o`` in direction ``d`` to
     the points ``P`` at distance ``dist``; ``own``: the four arrays object id, prim, object
     id, prim of the points' faces."""
+    qi, glass = _qi(scene, table, o, P, d, dist, own, max_qi)
+    dr.eval(qi, glass)
+    return qi, glass
+
+
+def _qi(
+    scene: mi.Scene,
+    table: ObjectTable,
+    o: mi.Point3f,
+    P: mi.Point3f,
+    d: mi.Vector3f,
+    dist: mi.Float,
+    own: list,
+    max_qi: int,
+    opaque: bool = True,
+) -> tuple[mi.UInt32, mi.Bool]:
+    """:func:`_count`'s loop, traced but not evaluated; ``opaque``: its zeros made evaluated
+    arrays (not inside another loop, where nothing can be evaluated)."""
     n = dr.width(P)
     guard = dist * EPSILON
     qi = dr.zeros(mi.UInt32, n)
@@ -184,7 +250,8 @@ def _count(
     ray_o = mi.Point3f(o)
     maxt = dist - guard
     steps = dr.zeros(mi.UInt32, n)
-    dr.make_opaque(qi, glass, steps)
+    if opaque:
+        dr.make_opaque(qi, glass, steps)
     limit = max_qi + MAX_PASSES
     own_o0, own_p0, own_o1, own_p1 = own
 
@@ -215,7 +282,6 @@ def _count(
         body,
         labels=("o", "maxt", "qi", "glass", "active", "steps"),
     )
-    dr.eval(qi, glass)
     return qi, glass
 
 
