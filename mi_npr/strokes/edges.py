@@ -290,8 +290,9 @@ class Topology:
         return self.offset - self.unit @ np.asarray(origin, np.float64).reshape(3)
 
 
-#: The last scene's topology, with its key (:func:`topology`).
-_LAST: list = []
+#: The last scene's topology: one ``(key, buffers, topology)`` entry, replaced as a whole (a
+#: thread reads one entry, never a mix of two) (:func:`topology`).
+_LAST: list = [None]
 
 
 def topology(table: ObjectTable) -> Topology:
@@ -307,11 +308,12 @@ def topology(table: ObjectTable) -> Topology:
             buffers += [vp, fb]
             key.append((oid, vp.index, fb.index, dr.width(vp), dr.width(fb)))
     key_t = tuple(key)
-    if _LAST and _LAST[0] == key_t:
-        return _LAST[2]
-    _LAST.clear()  # the old one's memory first
+    entry = _LAST[0]
+    if entry is not None and entry[0] == key_t:
+        return entry[2]
+    entry = _LAST[0] = None  # the old one's memory first
     topo = Topology.of(*mesh_arrays(table))
-    _LAST[:] = [key_t, buffers, topo]
+    _LAST[0] = (key_t, buffers, topo)
     return topo
 
 
