@@ -186,3 +186,24 @@ def test03_chain_angle_joins_or_splits_the_outline(tmp_path, chain_angle):
         assert len(sil) == 6 and all(len(s) == 2 for s in sil)
     else:  # the hexagonal outline of a cube is one closed stroke
         assert len(sil) == 1 and sil[0].closed and len(sil[0]) == 6
+
+
+def test04_moved_vertices_are_seen_by_the_next_extraction(tmp_path):
+    """The meshes' topology is kept between extractions of one scene; vertex positions
+    updated through ``mi.traverse`` must not be answered from it: after the cube is shrunk
+    in place about its centre, its strokes end on the shrunk cube's projected corners."""
+    scene = load(tmp_path, CUBE.format(POSE))
+    extract_strokes(scene, scene.sensors()[0])
+    params = mi.traverse(scene)
+    key = next(k for k in params.keys() if k.endswith("vertex_positions"))
+    v = np.asarray(params[key].numpy(), np.float64).reshape(-1, 3)
+    centre = np.array([0.2, -0.1, 5.0])
+    params[key] = mi.Float(((v - centre) * 0.5 + centre).astype(np.float32).reshape(-1))
+    params.update()
+    st = extract_strokes(scene, scene.sensors()[0])
+    corners, _, _ = cube_geometry()
+    px = project((corners - centre) * 0.5 + centre)
+    pts = np.concatenate([s.points for s in st])
+    d = np.hypot(*(pts[:, None, :] - px[None]).transpose(2, 0, 1))
+    assert d.min(1).max() < 0.05  # every vertex on a corner of the shrunk cube...
+    assert len(set(d.argmin(1).tolist())) == 8  # ...and every corner reached

@@ -7,6 +7,7 @@ written in the tests), and brute-force distances between sampled strokes.
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
@@ -224,6 +225,87 @@ def test07_a_sphere_in_front_of_another_owns_their_shared_outline(tmp_path):
     # and none of the far stroke runs along the near outline
     inside = seg_distance(far[0].points, rings["near"][:-1], rings["near"][1:]) < 0.25
     assert inside.sum() <= 2
+
+
+def test08_max_qi_leaves_out_what_lies_deeper(tmp_path):
+    """Strokes behind more than ``max_qi`` surfaces are left out, the others are unchanged:
+    the wall's top border passes behind the box and the ball (qi 2, each a closed solid)."""
+    scene = load(tmp_path, WALL + BOX + BALL)
+    full = extract_strokes(scene, scene.sensors()[0])
+    key = lambda s: (s.kind, s.qi, s.through_glass, np.round(s.points, 6).tobytes())  # noqa: E731
+    assert {s.qi for s in full} == {0, 1, 2}
+    for max_qi in (1, 2):
+        cut = extract_strokes(scene, scene.sensors()[0], max_qi=max_qi)
+        assert sorted(map(key, cut)) == sorted(key(s) for s in full if s.qi <= max_qi)
+    # the drawing's default keeps an object's own back edges (qi 1), not what lies behind it
+    from mi_npr.drawings import DRAWINGS
+
+    assert DRAWINGS["strokes"].values({})["max_qi"] == 1
+
+
+def _chains_by_walking(node0, node1, cls, dir0, dir1, max_turn):
+    """Chaining by hand (the rules of :mod:`mi_npr.strokes.chain`): join the two ends of one
+    class meeting at a node unless the turn is too sharp, then walk the pieces one by one:
+    open chains from the lower end piece's free end, then loops from their lowest piece."""
+    n = len(cls)
+    ends = {}
+    for p in range(n):
+        for side, node in ((0, node0[p]), (1, node1[p])):
+            ends.setdefault((int(node), int(cls[p])), []).append((p, side))
+    link = {}
+    for group in ends.values():
+        if len(group) != 2 or group[0][0] == group[1][0]:
+            continue
+        (p, a), (q, b) = group
+        u1 = (dir0 if a == 0 else dir1)[p]
+        u2 = (dir0 if b == 0 else dir1)[q]
+        l1, l2 = math.hypot(*u1), math.hypot(*u2)
+        if max_turn < 180 and l1 > 0 and l2 > 0:
+            turn = math.degrees(math.acos(max(-1.0, min(1.0, -float(u1 @ u2) / (l1 * l2)))))
+            if turn >= max_turn:
+                continue
+        link[(p, a)], link[(q, b)] = (q, b), (p, a)
+    used = [False] * n
+    out = []
+
+    def walk(p, side):
+        steps = []
+        while True:
+            used[p] = True
+            steps.append((p, side == 1))
+            nxt = link.get((p, 1 - side))
+            if nxt is None:
+                return steps, False
+            if used[nxt[0]]:
+                return steps, True
+            p, side = nxt
+
+    for p in range(n):
+        if not used[p] and ((p, 0) not in link or (p, 1) not in link):
+            out.append(walk(p, 0 if (p, 0) not in link else 1))
+    for p in range(n):
+        if not used[p]:
+            out.append(walk(p, 0))
+    return out
+
+
+def test09_chaining_agrees_with_walking_by_hand():
+    from mi_npr.strokes.chain import chain_pieces
+
+    rng = np.random.default_rng(7)
+    loops = 0
+    for _ in range(400):
+        n, nodes = int(rng.integers(0, 30)), int(rng.integers(1, 25))
+        node0, node1 = rng.integers(0, nodes, n), rng.integers(0, nodes, n)
+        cls = rng.integers(0, 2, n)
+        dir0 = rng.normal(size=(n, 2))
+        dir0[rng.random(n) < 0.1] = 0.0  # pieces of no length on the film
+        dir1 = -dir0
+        for max_turn in (45.0, 120.0, 180.0):
+            ref = _chains_by_walking(node0, node1, cls, dir0, dir1, max_turn)
+            assert chain_pieces(node0, node1, cls, dir0, dir1, max_turn) == ref
+            loops += sum(closed for _, closed in ref)
+    assert loops > 10  # closed loops were tested too
 
 
 def test10_a_glass_sphere_has_its_own_outline(tmp_path):

@@ -23,8 +23,11 @@ object space, exact, and the image is used for what object space lacks.
    from the camera origin to points sampled every 0.5 px along each edge, which is split where
    it changes (bisection, 1e-4 px). QI counts every surface crossed in front of the point (a
    closed solid counts 2); glass (``DeltaTransmission``) does not hide and marks the points
-   behind it ``through_glass``; ``null`` surfaces are invisible. Outlines of step 2 are
-   visible by construction (their hidden parts are not drawn).
+   behind it ``through_glass``; ``null`` surfaces are invisible. Parts behind more than
+   ``max_qi`` surfaces are left out (the ``strokes`` drawing's default, 1, keeps an object's
+   own back edges and what lies behind a single sheet: on a large assembly most edges lie
+   deeper, and drawn dashed they would cover the picture). Outlines of step 2 are visible
+   by construction (their hidden parts are not drawn).
 4. *Chaining* (:mod:`~mi_npr.strokes.chain`): pieces of one kind and visibility state joined
    at shared vertices while the stroke turns less than ``chain_angle``; three or more at a
    vertex (a T- or Y-junction) end them all; a visibility change ends a stroke, so a line

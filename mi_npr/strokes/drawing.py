@@ -23,7 +23,7 @@ from .model import Strokes
 from .raster import rasterize
 from .style import STYLES, Style, dash_pattern, style_of
 
-#: Most surfaces a visibility ray counts.
+#: The largest ``max_qi``.
 MAX_QI = 64
 #: The longest segment of a stroke whose opacity varies along it (eq. 5.1), in pixels.
 GRAY_SPACING = 2.0
@@ -54,7 +54,14 @@ STROKES_PARAMS: tuple[Param, ...] = (
         "strokes turn by less than this at a joint, degrees",
         real_range(0, 180),
     ),
-    Param("max_qi", int, 8, "most surfaces counted in front of a line", integer_range(1, MAX_QI)),
+    Param(
+        "max_qi",
+        int,
+        1,
+        "hidden lines behind more surfaces than this are not drawn (1: an object's own back "
+        "edges and what lies behind one sheet)",
+        integer_range(1, MAX_QI),
+    ),
 )
 
 

@@ -5,7 +5,9 @@
 and faces. Vertices of *all* meshes closer than ``1e-6`` of the scene's size
 are welded into one (a mesh split at UV seams, or two objects that share an edge, such as a
 room's floor and wall); an edge is a pair of welded vertices, its faces the triangles that use
-it. Building it costs ``O(F log F)`` for ``F`` triangles.
+it. Building it costs ``O(F log F)`` for ``F`` triangles; it does not depend on the camera,
+so it is built once per scene (:func:`topology`, with the intersection lines) and each view
+only classifies the edges (``O(E)`` array operations).
 
 **Kinds** (``mi_npr.strokes.KINDS``), one per edge, the first that applies:
 
@@ -39,7 +41,7 @@ segment's parameter, so the clipped ends lie exactly on the frame.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import drjit as dr
 import mitsuba as mi
@@ -98,20 +100,17 @@ class FeatureEdges:
 
 def mesh_arrays(table: ObjectTable) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every mesh of the object table as one triangle soup: vertex positions (V, 3) float64,
-    faces (F, 3) int64 into them, and each face's object id and primitive index (F,)."""
+    faces (F, 3) int64 into them, and each face's object id and primitive index (F,), the
+    faces of one object contiguous, objects in increasing id."""
     vs, fs, oids, prims = [], [], [], []
     base = 0
     for oid in sorted(table.shapes):
         shape = table.shapes[oid]
         if not shape.is_mesh():
             continue
-        # the mesh interface, not mi.traverse: a ``rectangle`` is a mesh without the
-        # ``vertex_positions`` parameter
-        nv, nf = int(shape.vertex_count()), int(shape.face_count())
-        pos = shape.vertex_position(dr.arange(mi.UInt32, nv))
-        idx = shape.face_indices(dr.arange(mi.UInt32, nf))
-        v = np.stack([np.asarray(c.numpy(), np.float64) for c in (pos.x, pos.y, pos.z)], -1)
-        f = np.stack([np.asarray(c.numpy(), np.int64) for c in (idx.x, idx.y, idx.z)], -1)
+        # the mesh's own buffers (world space, flat): no kernel per shape
+        v = np.asarray(shape.vertex_positions_buffer().numpy(), np.float64).reshape(-1, 3)
+        f = np.asarray(shape.faces_buffer().numpy(), np.int64).reshape(-1, 3)
         if len(f) == 0:
             continue
         vs.append(v)
@@ -144,128 +143,245 @@ def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
     return labels.astype(np.int64)
 
 
+@dataclass(eq=False)
+class Topology:
+    """What of the feature edges does not depend on the camera: the triangle soup
+    (:func:`mesh_arrays`), its unit face normals ``unit`` (0 for a degenerate face) and the
+    planes' offsets ``offset = unit . p0``, the welded vertices (their first
+    occurrence's position ``welded``), and per welded edge ``E``: its ends ``keys`` (E, 2), its
+    face count ``counts``, its first two faces ``f0``, ``f1`` (``f1 = f0`` with one face),
+    ``flip`` (the two faces wind the edge the same way: ``f1``'s normal is turned for it) and
+    ``cos_n``, the cosine between the two (turned) normals (1 where undefined). The
+    intersection segments (:func:`~mi_npr.strokes.intersect.intersections`) are found on first
+    use."""
+
+    v: np.ndarray
+    f: np.ndarray
+    face_oid: np.ndarray
+    face_prim: np.ndarray
+    unit: np.ndarray
+    offset: np.ndarray
+    size: float
+    welded: np.ndarray
+    keys: np.ndarray
+    counts: np.ndarray
+    f0: np.ndarray
+    f1: np.ndarray
+    flip: np.ndarray
+    cos_n: np.ndarray
+    crossings: tuple[np.ndarray, ...] | None = None
+    _two: np.ndarray | None = None
+    _kinds: dict = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, v: np.ndarray, f: np.ndarray, face_oid: np.ndarray, face_prim: np.ndarray):
+        """The topology of a triangle soup (class docstring)."""
+        if len(f) == 0:
+            z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
+            zi = z.astype(np.int32)
+            return cls(
+                v,
+                f,
+                z,
+                z,
+                z3,
+                z[:0] * 0.0,
+                1.0,
+                z3,
+                np.zeros((0, 2), np.int32),
+                zi,
+                zi,
+                zi,
+                z.astype(bool),
+                z * 0.0,
+            )
+        size = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
+        wid = weld(v, WELD * size)
+        n_welded = int(wid.max()) + 1
+        # half-edges (from, to) and their face, in 32 bits (memory: 3 per face); one sort of
+        # a 64-bit key groups each edge's
+        fw = wid.astype(np.int32)[f]  # welded corners (F, 3)
+        hu = fw.reshape(-1)
+        hv = fw[:, [1, 2, 0]].reshape(-1)
+        hface = np.repeat(np.arange(len(f), dtype=np.int32), 3)
+        del fw
+        ok = hu != hv  # a face collapsed by welding has no edge there
+        if not ok.all():
+            hu, hv, hface = hu[ok], hv[ok], hface[ok]
+        del ok
+        forward = hu < hv
+        lo, hi = np.minimum(hu, hv), np.maximum(hu, hv)
+        del hu, hv
+        key = lo.astype(np.int64) * n_welded + hi
+        order = np.argsort(key, kind="stable")
+        key = key[order]
+        head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
+        del key
+        counts = np.diff(np.append(head, len(order))).astype(np.int32)
+        h0 = order[head]
+        h1 = np.where(counts >= 2, order[np.minimum(head + 1, len(order) - 1)], h0)
+        del order, head
+        f0, f1 = hface[h0], hface[h1]
+        flip = forward[h0] == forward[h1]
+        keys = np.stack([lo[h0], hi[h0]], 1)
+        del hface, forward, lo, hi, h0, h1
+        # unit normals and plane offsets, a block of faces at a time (bounded temporaries)
+        unit = np.empty((len(f), 3))
+        offset = np.empty(len(f))
+        for c in range(0, len(f), 1 << 20):
+            fc = f[c : c + (1 << 20)]
+            p0 = v[fc[:, 0]]
+            n = np.cross(v[fc[:, 1]] - p0, v[fc[:, 2]] - p0)
+            length = np.linalg.norm(n, axis=1)
+            unit[c : c + len(fc)] = n / np.where(length > 0, length, np.inf)[:, None]
+            offset[c : c + len(fc)] = np.einsum("ij,ij->i", unit[c : c + len(fc)], p0)
+        # cos of the (turned) normals, a column at a time; a degenerate face: 1 (no crease)
+        cos_n = np.zeros(len(f0))
+        for k in range(3):
+            col = unit[:, k]
+            cos_n += col[f0] * col[f1]
+        cos_n = np.where(flip, -cos_n, cos_n)
+        degenerate = ~np.any(unit != 0, axis=1)
+        cos_n[degenerate[f0] | degenerate[f1]] = 1.0
+        rep = np.zeros(n_welded, np.int64)
+        rep[wid[::-1]] = np.arange(len(wid))[::-1]
+        return cls(
+            v,
+            f,
+            face_oid,
+            face_prim,
+            unit,
+            offset,
+            size,
+            v[rep],
+            keys,
+            counts,
+            f0,
+            f1,
+            flip,
+            cos_n,
+        )
+
+    @property
+    def two(self) -> np.ndarray:
+        """The edges of exactly two faces (E,) bool."""
+        if self._two is None:
+            self._two = self.counts == 2
+        return self._two
+
+    def static_kinds(self, crease_angle: float) -> np.ndarray:
+        """Each edge's kind (E,) int8 as far as it does not depend on the camera: crease,
+        material or border (module docstring), -1 for none (a silhouette overrides them)."""
+        if crease_angle not in self._kinds:
+            # dihedral < crease_angle  <=>  angle(n0, n1) > 180 - crease_angle
+            crease_cos = math.cos(math.radians(180.0 - crease_angle))
+            crease = (crease_angle > 0) & (self.cos_n < crease_cos)
+            kind = np.full(len(self.counts), -1, np.int8)
+            kind[self.counts >= 3] = _CREASE
+            kind[self.two & crease] = _CREASE
+            kind[self.two & (self.face_oid[self.f0] != self.face_oid[self.f1])] = _MATERIAL
+            kind[self.counts == 1] = _BORDER
+            self._kinds = {crease_angle: kind}  # one angle kept: the memory of one array
+        return self._kinds[crease_angle]
+
+    def facing(self, origin: np.ndarray) -> np.ndarray:
+        """``unit . (p - origin)`` per face (F,), ``p`` any point of its plane: negative where
+        the face is front-facing, its magnitude how squarely."""
+        return self.offset - self.unit @ np.asarray(origin, np.float64).reshape(3)
+
+
+#: The last scene's topology: one ``(key, buffers, topology)`` entry, replaced as a whole (a
+#: thread reads one entry, never a mix of two) (:func:`topology`).
+_LAST: list = [None]
+
+
+def topology(table: ObjectTable) -> Topology:
+    """The :class:`Topology` of every mesh in ``table``, kept for the next call while the
+    meshes' vertex and face buffers are the same Dr.Jit arrays: a mesh whose positions are
+    updated (``mi.traverse``) gets a new buffer, hence a new topology. The cached entry holds
+    the buffers it was built from so that their Dr.Jit indices are not reused meanwhile."""
+    buffers, key = [], []
+    for oid in sorted(table.shapes):
+        shape = table.shapes[oid]
+        if shape.is_mesh():
+            vp, fb = shape.vertex_positions_buffer(), shape.faces_buffer()
+            buffers += [vp, fb]
+            key.append((oid, vp.index, fb.index, dr.width(vp), dr.width(fb)))
+    key_t = tuple(key)
+    entry = _LAST[0]
+    if entry is not None and entry[0] == key_t:
+        return entry[2]
+    entry = _LAST[0] = None  # the old one's memory first
+    topo = Topology.of(*mesh_arrays(table))
+    _LAST[0] = (key_t, buffers, topo)
+    return topo
+
+
 def feature_edges(
     table: ObjectTable, origin: np.ndarray, crease_angle: float = 134.0, intersect: bool = True
 ) -> FeatureEdges:
     """The feature edges of every mesh in ``table`` seen from ``origin`` (module docstring),
     with the ``intersection`` lines between different meshes when ``intersect``."""
-    v, f, face_oid, face_prim = mesh_arrays(table)
-    if len(f) == 0:
+    topo = topology(table)
+    if len(topo.f) == 0:
         return FeatureEdges.empty()
-    size = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
-    wid = weld(v, WELD * size)
-    fw = wid[f]  # welded corners (F, 3)
-    # half-edges: (F * 3) of (from, to), face index
-    hu = fw.reshape(-1)
-    hv = fw[:, [1, 2, 0]].reshape(-1)
-    hface = np.repeat(np.arange(len(f)), 3)
-    ok = hu != hv  # a face collapsed by welding has no edge there
-    hu, hv, hface = hu[ok], hv[ok], hface[ok]
-    lo, hi = np.minimum(hu, hv), np.maximum(hu, hv)
-    forward = hu < hv
-    keys, inverse, counts = np.unique(
-        np.stack([lo, hi], 1), axis=0, return_inverse=True, return_counts=True
-    )
-    inverse = inverse.reshape(-1)
-    order = np.argsort(inverse, kind="stable")
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    h0 = order[starts]
-    h1 = order[np.minimum(starts + 1, len(order) - 1)]
-    two = counts >= 2
-    f0, f1 = hface[h0], hface[h1]
-    # face normals (unnormalised), from the faces' own (unwelded) corners
-    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    nrm = np.cross(p1 - p0, p2 - p0)
-    n0 = nrm[f0]
-    n1 = np.where((forward[h0] == forward[h1])[:, None], -nrm[f1], nrm[f1])
-    # the edge's ends: one representative position per welded vertex (its first occurrence)
-    rep = np.zeros(int(wid.max()) + 1, np.int64)
-    rep[wid[::-1]] = np.arange(len(wid))[::-1]
-    a = v[rep[keys[:, 0]]]
-    b = v[rep[keys[:, 1]]]
-    view = a - np.asarray(origin, np.float64).reshape(1, 3)
-    vlen = np.linalg.norm(view, axis=1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s0 = np.einsum("ij,ij->i", n0, view) / (np.linalg.norm(n0, axis=1) * vlen[:, 0])
-        s1 = np.einsum("ij,ij->i", n1, view) / (np.linalg.norm(n1, axis=1) * vlen[:, 0])
-        cos_n = np.einsum("ij,ij->i", n0, n1) / (
-            np.linalg.norm(n0, axis=1) * np.linalg.norm(n1, axis=1)
-        )
-    s0, s1 = np.nan_to_num(s0, nan=0.0), np.nan_to_num(s1, nan=0.0)
-    front0, front1 = s0 < 0, s1 < 0
-    # dihedral < crease_angle  <=>  angle(n0, n1) > 180 - crease_angle
-    crease_cos = math.cos(math.radians(180.0 - crease_angle))
-    crease = (crease_angle > 0) & (np.nan_to_num(cos_n, nan=1.0) < crease_cos)
-    o0, o1 = face_oid[f0], face_oid[f1]
-    kind = np.full(len(keys), -1, np.int64)
-    is_two = two & (counts == 2)
-    kind[counts >= 3] = _CREASE
-    kind[is_two & crease] = _CREASE
-    kind[is_two & (o0 != o1)] = _MATERIAL
-    kind[counts == 1] = _BORDER
-    kind[is_two & (front0 != front1)] = _SIL
-    keep = kind >= 0
+    d = topo.facing(origin)
+    # front-facing tests as byte gathers over every edge; the values only for the drawn ones
+    neg, pos = d < 0, d > 0
+    front0 = neg[topo.f0]
+    front1 = np.where(topo.flip, pos[topo.f1], neg[topo.f1])  # the turned normal's sign
+    kind = topo.static_kinds(crease_angle).copy()
+    kind[topo.two & (front0 != front1)] = _SIL
+    e = np.flatnonzero(kind >= 0)
+    f0, f1, two = topo.f0[e], topo.f1[e], topo.two[e]
     # the face drawn: the one facing the camera more
-    second = two & (s1 < s0)
-    face = np.where(second, f1, f0)
-    faces = np.zeros((len(keys), 2, 2), np.int64)
-    faces[:, 0, 0], faces[:, 0, 1] = o0, face_prim[f0]
+    d0, d1 = d[f0], np.where(topo.flip[e], -d[f1], d[f1])
+    face = np.where(two & (d1 < d0), f1, f0)
+    o0, o1 = topo.face_oid[f0], topo.face_oid[f1]
+    faces = np.zeros((len(e), 2, 2), np.int64)
+    faces[:, 0, 0], faces[:, 0, 1] = o0, topo.face_prim[f0]
     faces[:, 1, 0] = np.where(two, o1, 0)
-    faces[:, 1, 1] = np.where(two, face_prim[f1], 0)
+    faces[:, 1, 1] = np.where(two, topo.face_prim[f1], 0)
+    keys = topo.keys[e]
     mesh = FeatureEdges(
-        a=a[keep],
-        b=b[keep],
-        va=keys[keep, 0],
-        vb=keys[keep, 1],
-        kind=kind[keep],
-        object_id=face_oid[face[keep]].astype(np.uint32),
-        prim=face_prim[face[keep]].astype(np.uint32),
-        faces=faces[keep],
+        a=topo.welded[keys[:, 0]],
+        b=topo.welded[keys[:, 1]],
+        va=keys[:, 0],
+        vb=keys[:, 1],
+        kind=kind[e],
+        object_id=topo.face_oid[face].astype(np.uint32),
+        prim=topo.face_prim[face].astype(np.uint32),
+        faces=faces,
     )
     if not intersect:
         return mesh
-    return _concat(mesh, _intersection_edges(v, f, face_oid, face_prim, nrm, origin, size, wid))
+    return _concat(mesh, _intersection_edges(topo, d))
 
 
-def _intersection_edges(
-    v: np.ndarray,
-    f: np.ndarray,
-    face_oid: np.ndarray,
-    face_prim: np.ndarray,
-    nrm: np.ndarray,
-    origin: np.ndarray,
-    size: float,
-    wid: np.ndarray,
-) -> FeatureEdges:
+def _intersection_edges(topo: Topology, d: np.ndarray) -> FeatureEdges:
     """The ``intersection`` edges (:mod:`mi_npr.strokes.intersect`), their ends welded into
-    nodes numbered after the mesh vertices'."""
-    p, q, fa, fb = intersections(v, f, face_oid)
+    nodes numbered after the mesh vertices'; ``d``: :meth:`Topology.facing`."""
+    if topo.crossings is None:
+        p, q, fa, fb = intersections(topo.v, topo.f, topo.face_oid)
+        node = weld(np.concatenate([p, q]), WELD * topo.size) + len(topo.welded)
+        va, vb = node[: len(p)], node[len(p) :]
+        keep = va != vb
+        topo.crossings = (p[keep], q[keep], fa[keep], fb[keep], va[keep], vb[keep])
+    p, q, fa, fb, va, vb = topo.crossings
     if not len(p):
         return FeatureEdges.empty()
-    node = weld(np.concatenate([p, q]), WELD * size) + int(wid.max()) + 1
-    va, vb = node[: len(p)], node[len(p) :]
-    keep = va != vb
-    p, q, fa, fb, va, vb = p[keep], q[keep], fa[keep], fb[keep], va[keep], vb[keep]
-    view = p - np.asarray(origin, np.float64).reshape(1, 3)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        facing = [
-            np.nan_to_num(
-                np.einsum("ij,ij->i", nrm[g], view) / np.linalg.norm(nrm[g], axis=1), nan=0.0
-            )
-            for g in (fa, fb)
-        ]
-    face = np.where(facing[1] < facing[0], fb, fa)
-    faces = np.stack(
-        [np.stack([face_oid[fa], face_prim[fa]], 1), np.stack([face_oid[fb], face_prim[fb]], 1)], 1
-    )
+    # each end lies on both planes: the plane's facing value there is the face's
+    face = np.where(d[fb] < d[fa], fb, fa)
+    oid, prim = topo.face_oid, topo.face_prim
+    faces = np.stack([np.stack([oid[fa], prim[fa]], 1), np.stack([oid[fb], prim[fb]], 1)], 1)
     return FeatureEdges(
         a=p,
         b=q,
         va=va,
         vb=vb,
         kind=np.full(len(p), KINDS.index("intersection"), np.int64),
-        object_id=face_oid[face].astype(np.uint32),
-        prim=face_prim[face].astype(np.uint32),
+        object_id=oid[face].astype(np.uint32),
+        prim=prim[face].astype(np.uint32),
         faces=faces.astype(np.int64),
     )
 
@@ -298,9 +414,13 @@ class Projector:
         """Homogeneous coordinates (..., 4) of world points ``p`` (..., 3): ``X, Y`` scaled so
         that ``X / W`` is the film's ``x / width``, and ``W`` the depth."""
         p = np.asarray(p, np.float64)
-        h = p @ self.matrix[:3, :3].T + self.matrix[:3, 3]
-        w = p @ self.matrix[3, :3] + self.matrix[3, 3]
-        return np.concatenate([h[..., :2], h[..., 2:3], w[..., None]], axis=-1)
+        m = self.matrix
+        out = np.empty((*p.shape[:-1], 4))
+        # one row at a time: numpy's matmul of (N, 3) by (3, 3) was several times slower
+        x, y, z = p[..., 0], p[..., 1], p[..., 2]
+        for r in range(4):
+            out[..., r] = x * m[r, 0] + y * m[r, 1] + z * m[r, 2] + m[r, 3]
+        return out
 
     def film(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Film positions (..., 2) and depths (...) of world points ``p`` (..., 3)."""

@@ -7,7 +7,8 @@
    ``through_glass`` (:mod:`mi_npr.strokes.visibility`), is cast. Where two neighbouring
    samples differ, the change is found by ``ITERATIONS`` bisections along the edge (to
    ``SPACING / 2**ITERATIONS`` px) and the edge is split there. A change that starts and ends
-   between two samples (an occluder thinner than ``SPACING`` px) is missed.
+   between two samples (an occluder thinner than ``SPACING`` px) is missed. The pieces
+   behind more than ``max_qi`` surfaces are then dropped (the rays count to ``max_qi + 1``).
 3. **Chaining** of the pieces (:mod:`mi_npr.strokes.chain`), per kind and visibility state.
 4. The outlines of the shapes that are not meshes (:mod:`mi_npr.strokes.outlines`).
 5. Optionally (``resample``) more vertices along long segments, then per vertex the depth
@@ -22,20 +23,22 @@ vertex (the last vertex of an open stroke: of the edge that arrives).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping
 from typing import Any
 
+import drjit as dr
 import mitsuba as mi
 import numpy as np
 
 from ..gbuffer import Projection
 from ..raycast import cast, film_grid, pixel_rays
 from ..scene import ObjectTable, object_table
-from .chain import chain_pieces
+from .chain import chain_order
 from .edges import FeatureEdges, Projector, feature_edges
 from .model import KINDS, Stroke, Strokes
-from .outlines import normals_2d, outline_strokes, probe
-from .visibility import quantitative_invisibility
+from .outlines import outline_strokes
+from .visibility import SegmentVisibility, first_opaque_hit, jit_array
 
 #: Film distance between visibility samples along an edge, in pixels.
 SPACING = 0.5
@@ -78,12 +81,13 @@ class _Pieces:
         k = np.arange(len(owner)) - first[owner]
         u = k / (count[owner] - 1)
 
+        # counted to max_qi + 1: the pieces beyond max_qi are told apart, then dropped
+        rays = SegmentVisibility(
+            scene, table, proj.origin, A, B, wa, wb, edges.faces[e], max_qi + 1
+        )
+
         def state_at(idx: np.ndarray, uu: np.ndarray) -> np.ndarray:
-            s = _film_param_to_3d(uu, wa[idx], wb[idx])
-            p = A[idx] + s[:, None] * (B[idx] - A[idx])
-            qi, glass = quantitative_invisibility(
-                scene, table, proj.origin, p, edges.faces[e[idx]], max_qi
-            )
+            qi, glass = rays.at(idx, uu)
             return qi.astype(np.int64) * 2 + glass
 
         state = state_at(owner, u)
@@ -91,13 +95,7 @@ class _Pieces:
         ulo, uhi = u[change], u[change + 1]
         slo = state[change]
         idx = owner[change]
-        for _ in range(ITERATIONS):
-            if not len(change):
-                break
-            mid = 0.5 * (ulo + uhi)
-            same = state_at(idx, mid) == slo
-            ulo = np.where(same, mid, ulo)
-            uhi = np.where(same, uhi, mid)
+        ulo, uhi = rays.bisect(idx, ulo, uhi, slo, ITERATIONS)
         split_u = 0.5 * (ulo + uhi)
         # pieces: per edge, boundaries 0, changes..., 1 (the changes of one edge come in order
         # along it), each with the state of the samples after its start
@@ -125,7 +123,6 @@ class _Pieces:
         last = np.append(pe[1:] != pe[:-1], True)
         u1[last] = 1.0
         first_of = np.append(True, pe[1:] != pe[:-1])
-        self.state = st
         # nodes: welded vertices at unclipped ends, fresh ids elsewhere; the two pieces of a
         # change share a node (their states differ: a point where two strokes meet, unchained)
         fresh = int(max(edges.va.max(initial=-1), edges.vb.max(initial=-1))) + 1
@@ -134,6 +131,9 @@ class _Pieces:
         node0 = np.where(first_of & (lo[e][pe] == 0), edges.va[e][pe], node0)
         clipped = -1 - np.arange(len(pe))  # an end on the image frame: its own node
         node1 = np.where(last, np.where(hi[e][pe] == 1, edges.vb[e][pe], clipped), node1)
+        shown = st // 2 <= max_qi
+        pe, u0, u1, st, node0, node1 = (x[shown] for x in (pe, u0, u1, st, node0, node1))
+        self.state = st
         s0 = _film_param_to_3d(u0, wa[pe], wb[pe])
         s1 = _film_param_to_3d(u1, wa[pe], wb[pe])
         self.p0 = A[pe] + s0[:, None] * (B[pe] - A[pe])
@@ -154,7 +154,7 @@ def _mesh_strokes(pieces: _Pieces, chain_angle: float) -> list[Stroke]:
         return []
     n_states = int(pieces.state.max()) + 1
     cls = pieces.kind * n_states + pieces.state
-    chains = chain_pieces(
+    piece, rev, start, closed = chain_order(
         pieces.node0,
         pieces.node1,
         cls,
@@ -162,41 +162,48 @@ def _mesh_strokes(pieces: _Pieces, chain_angle: float) -> list[Stroke]:
         pieces.xy0 - pieces.xy1,
         chain_angle,
     )
-    out = []
-    for steps, closed in chains:
-        p_idx = np.array([p for p, _ in steps])
-        rev = np.array([r for _, r in steps])
-        start_xy = np.where(rev[:, None], pieces.xy1[p_idx], pieces.xy0[p_idx])
-        end_xy = np.where(rev[:, None], pieces.xy0[p_idx], pieces.xy1[p_idx])
-        start_p = np.where(rev[:, None], pieces.p1[p_idx], pieces.p0[p_idx])
-        end_p = np.where(rev[:, None], pieces.p0[p_idx], pieces.p1[p_idx])
-        start_d = np.where(rev, pieces.d1[p_idx], pieces.d0[p_idx])
-        end_d = np.where(rev, pieces.d0[p_idx], pieces.d1[p_idx])
-        oid, prim = pieces.object_id[p_idx], pieces.prim[p_idx]
-        if closed:
-            xy, pos, dep = start_xy, start_p, start_d
-            v_oid, v_prim = oid, prim
-        else:
-            xy = np.concatenate([start_xy, end_xy[-1:]])
-            pos = np.concatenate([start_p, end_p[-1:]])
-            dep = np.concatenate([start_d, end_d[-1:]])
-            v_oid = np.append(oid, oid[-1])
-            v_prim = np.append(prim, prim[-1])
-        st = int(pieces.state[p_idx[0]])
-        out.append(
-            Stroke(
-                kind=KINDS[int(pieces.kind[p_idx[0]])],
-                points=xy,
-                position=pos,
-                depth=dep,
-                object_id=v_oid,
-                prim=v_prim,
-                qi=st // 2,
-                through_glass=bool(st % 2),
-                closed=closed and len(xy) >= 3,
-            )
+    # every chain's vertices in one set of arrays: the start of each piece as walked, and
+    # for an open chain the end of its last piece (with that piece's object and primitive)
+    count = np.diff(start)
+    size = count + ~closed
+    first = np.concatenate([[0], np.cumsum(size)[:-1]])
+    chain = np.repeat(np.arange(len(count)), count)
+    at = first[chain] + np.arange(len(piece)) - start[chain]
+    last = start[1:][~closed] - 1
+    end_at = first[~closed] + count[~closed]
+    total = int(size.sum())
+
+    def gather(a0: np.ndarray, a1: np.ndarray) -> np.ndarray:
+        out = np.empty((total, *a0.shape[1:]), a0.dtype)
+        r = rev.reshape(-1, *([1] * (a0.ndim - 1)))
+        out[at] = np.where(r, a1[piece], a0[piece])
+        out[end_at] = np.where(r[last], a0[piece[last]], a1[piece[last]])
+        return out
+
+    xy = gather(pieces.xy0, pieces.xy1)
+    pos = gather(pieces.p0, pieces.p1)
+    dep = gather(pieces.d0, pieces.d1)
+    oid = gather(pieces.object_id, pieces.object_id)
+    prim = gather(pieces.prim, pieces.prim)
+    head = piece[start[:-1]]
+    st = pieces.state[head].tolist()
+    kinds = pieces.kind[head].tolist()
+    ring = (closed & (size >= 3)).tolist()
+    bounds = np.append(first, total).tolist()
+    return [
+        Stroke(
+            kind=KINDS[kinds[c]],
+            points=xy[a:b],
+            position=pos[a:b],
+            depth=dep[a:b],
+            object_id=oid[a:b],
+            prim=prim[a:b],
+            qi=st[c] // 2,
+            through_glass=bool(st[c] % 2),
+            closed=ring[c],
         )
-    return out
+        for c, (a, b) in enumerate(itertools.pairwise(bounds))
+    ]
 
 
 def cast_depth_range(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable) -> tuple[float, float]:
@@ -215,32 +222,102 @@ def resampled(stroke: Stroke, spacing: float) -> Stroke:
     px on the film: film positions evenly along each segment, world positions and depths
     perspective-correct (exact on a straight 3-D segment), object and primitive those of the
     segment's first vertex."""
-    p = stroke.points
-    n = len(p)
-    if n < 2:
-        return stroke
-    ends = np.arange(n) if stroke.closed else np.arange(n - 1)
-    nxt = (ends + 1) % n
+    return resampled_all([stroke], spacing)[0]
+
+
+def resampled_all(strokes: list[Stroke], spacing: float) -> list[Stroke]:
+    """:func:`resampled` of every stroke, as array operations over all their vertices."""
+    size = np.array([len(s) for s in strokes], np.int64)
+    todo = [i for i, s in enumerate(strokes) if len(s) >= 2]
+    out = list(strokes)
+    if not todo:
+        return out
+    sub = [strokes[i] for i in todo]
+    n = size[todo]
+    closed = np.array([s.closed for s in sub])
+    p = np.concatenate([s.points for s in sub])
+    pos = np.concatenate([s.position for s in sub])
+    dep = np.concatenate([s.depth for s in sub])
+    oid = np.concatenate([s.object_id for s in sub])
+    prim = np.concatenate([s.prim for s in sub])
+    first = np.concatenate([[0], np.cumsum(n)[:-1]])
+    # the segments: every vertex of a closed stroke, all but the last of an open one
+    n_seg = np.where(closed, n, n - 1)
+    seg_of = np.repeat(np.arange(len(sub)), n_seg)
+    ends = first[seg_of] + np.arange(len(seg_of)) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg)
+    nxt = np.where(ends + 1 == first[seg_of] + n[seg_of], first[seg_of], ends + 1)
     seg = np.hypot(*(p[nxt] - p[ends]).T)
     k = np.maximum(1, np.ceil(seg / spacing).astype(np.int64))
-    owner = np.repeat(ends, k)
+    owner = np.repeat(np.arange(len(ends)), k)
     u = (np.arange(len(owner)) - np.repeat(np.cumsum(k) - k, k)) / k[owner]
-    a, b = owner, nxt[owner]
-    s3 = _film_param_to_3d(u, stroke.depth[a], stroke.depth[b])
-    if not stroke.closed:  # the last vertex
-        a, b = np.append(a, n - 1), np.append(b, n - 1)
-        u, s3 = np.append(u, 0.0), np.append(s3, 0.0)
-    return Stroke(
-        kind=stroke.kind,
-        points=p[a] + u[:, None] * (p[b] - p[a]),
-        position=stroke.position[a] + s3[:, None] * (stroke.position[b] - stroke.position[a]),
-        depth=1.0 / ((1.0 - u) / stroke.depth[a] + u / stroke.depth[b]),
-        object_id=stroke.object_id[a],
-        prim=stroke.prim[a],
-        qi=stroke.qi,
-        through_glass=stroke.through_glass,
-        closed=stroke.closed,
+    a, b = ends[owner], nxt[owner]
+    # an open stroke's last vertex after its last segment's samples
+    count = np.bincount(seg_of, weights=k, minlength=len(sub)).astype(np.int64) + ~closed
+    start = np.concatenate([[0], np.cumsum(count)[:-1]])
+    total = int(count.sum())
+    A = np.empty(total, np.int64)
+    U = np.zeros(total)
+    body = np.ones(total, bool)
+    body[(start + count - 1)[~closed]] = False
+    A[body], U[body] = a, u
+    B = A.copy()
+    B[body] = b
+    A[~body] = B[~body] = (first + n - 1)[~closed]
+    s3 = _film_param_to_3d(U, dep[A], dep[B])
+    s3[~body] = 0.0
+    P = p[A] + U[:, None] * (p[B] - p[A])
+    Q = pos[A] + s3[:, None] * (pos[B] - pos[A])
+    D = 1.0 / ((1.0 - U) / dep[A] + U / dep[B])
+    for j, (i, s) in enumerate(zip(todo, sub, strict=True)):
+        r = slice(start[j], start[j] + count[j])
+        out[i] = Stroke(
+            kind=s.kind,
+            points=P[r],
+            position=Q[r],
+            depth=D[r],
+            object_id=oid[A[r]],
+            prim=prim[A[r]],
+            qi=s.qi,
+            through_glass=s.through_glass,
+            closed=s.closed,
+        )
+    return out
+
+
+def _normals(points: np.ndarray, size: np.ndarray, closed: np.ndarray) -> np.ndarray:
+    """:func:`~mi_npr.strokes.outlines.normals_2d` of many polylines at once: ``points``
+    (M, 2) their vertices one after the other, ``size`` and ``closed`` (S,) each one's."""
+    first = np.concatenate([[0], np.cumsum(size)[:-1]])
+    last = first + size - 1
+    owner = np.repeat(np.arange(len(size)), size)
+    i = np.arange(len(points))
+    ring = closed[owner]
+    # the neighbours of a vertex; past an end: the other end (closed), the vertex (open)
+    nxt = np.where(i == last[owner], np.where(ring, first[owner], i), i + 1)
+    prv = np.where(i == first[owner], np.where(ring, last[owner], i), i - 1)
+    t = points[nxt] - points[prv]
+    length = np.hypot(t[:, 0], t[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(length[:, None] > 0, t / length[:, None], 0.0)
+    return np.stack([-u[:, 1], u[:, 0]], -1)
+
+
+def _depth_seen(
+    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, xy: np.ndarray, camera: Projection
+) -> np.ndarray:
+    """The depth (N,) of the first opaque surface seen through film positions ``xy`` (N, 2)
+    (:func:`~mi_npr.strokes.outlines.probe`'s ``depth``, +inf on a miss), from the hits'
+    positions alone."""
+    ray = pixel_rays(
+        sensor,
+        jit_array(mi.Float, xy[:, 0].astype(np.float32)),
+        jit_array(mi.Float, xy[:, 1].astype(np.float32)),
     )
+    si, _, hit, _ = first_opaque_hit(scene, table, ray, mi.RayFlags.Minimal)
+    dr.eval(si.p, hit)
+    hit_np = np.asarray(hit.numpy(), bool)
+    p = np.stack([np.asarray(c.numpy(), np.float64) for c in (si.p.x, si.p.y, si.p.z)], -1)
+    return np.where(hit_np, (p - camera.origin) @ camera.forward, np.inf)
 
 
 def _add_depth_behind(
@@ -252,15 +329,14 @@ def _add_depth_behind(
 ) -> None:
     if not strokes:
         return
+    size = np.array([len(s) for s in strokes])
     pts = np.concatenate([s.points for s in strokes])
-    nrm = np.concatenate([normals_2d(s.points, s.closed) for s in strokes])
-    a = probe(scene, sensor, table, pts + BESIDE * nrm, camera)["depth"]
-    b = probe(scene, sensor, table, pts - BESIDE * nrm, camera)["depth"]
-    behind = np.maximum(a, b)
-    i = 0
-    for s in strokes:
-        s.depth_behind = behind[i : i + len(s)]
-        i += len(s)
+    nrm = _normals(pts, size, np.array([s.closed for s in strokes]))
+    side = np.concatenate([pts + BESIDE * nrm, pts - BESIDE * nrm])
+    depth = _depth_seen(scene, sensor, table, side, camera)
+    behind = np.maximum(depth[: len(pts)], depth[len(pts) :])
+    for s, part in zip(strokes, np.split(behind, np.cumsum(size)[:-1]), strict=True):
+        s.depth_behind = part
 
 
 def extract_strokes(
@@ -280,7 +356,10 @@ def extract_strokes(
     object table (built if not given); ``depth_range``: the frame's nearest and farthest finite
     depth (default: :func:`cast_depth_range`); ``resample``: the longest segment on the film, in
     pixels (:func:`resampled`; ``None``: vertices only where the geometry turns), so that
-    per-vertex attributes such as ``depth_behind`` are sampled along straight edges too."""
+    per-vertex attributes such as ``depth_behind`` are sampled along straight edges too;
+    ``max_qi``: the parts of mesh edges behind more than ``max_qi`` surfaces are left out (the
+    visibility rays stop counting there, which is what makes hidden lines affordable on a
+    large model, where most edges lie deep inside it)."""
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
     camera = proj.camera
@@ -289,7 +368,7 @@ def extract_strokes(
     strokes += outline_strokes(scene, sensor, table, camera)
     strokes = [s for s in strokes if len(s) >= 2]
     if resample:
-        strokes = [resampled(s, resample) for s in strokes]
+        strokes = resampled_all(strokes, resample)
     _add_depth_behind(scene, sensor, table, strokes, camera)
     if depth_range is None:
         depth_range = cast_depth_range(scene, sensor, table)

@@ -28,41 +28,42 @@ GRID = 64
 CHUNK = 1 << 18
 
 
-def _boxes(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return t.min(1), t.max(1)
-
-
-def _candidates(ta: np.ndarray, tb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Index pairs (i, j) of triangles ``ta[i]``, ``tb[j]`` whose bounding boxes overlap, found
-    through a uniform grid (module docstring)."""
-    alo, ahi = _boxes(ta)
-    blo, bhi = _boxes(tb)
+def _candidates(
+    alo: np.ndarray, ahi: np.ndarray, blo: np.ndarray, bhi: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j) of triangles of two meshes whose bounding boxes (``alo[i]``,
+    ``ahi[i]``) and (``blo[j]``, ``bhi[j]``) overlap, found through a uniform grid (module
+    docstring). A pair is reported by the one cell that holds the larger of its two boxes'
+    lower corners (no pair twice, no sort to remove duplicates)."""
     lo = np.maximum(alo.min(0), blo.min(0))
     hi = np.minimum(ahi.max(0), bhi.max(0))
+    none = np.zeros(0, np.int64), np.zeros(0, np.int64)
     if np.any(lo > hi):
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return none
     ia = np.flatnonzero(np.all((alo <= hi) & (ahi >= lo), axis=1))
     ib = np.flatnonzero(np.all((blo <= hi) & (bhi >= lo), axis=1))
     if not len(ia) or not len(ib):
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return none
     extent = float(np.max(hi - lo))
-    sizes = np.concatenate([(ahi - alo)[ia].max(1), (bhi - blo)[ib].max(1)])
+    sizes = np.concatenate([(ahi[ia] - alo[ia]).max(1), (bhi[ib] - blo[ib]).max(1)])
     h = max(float(np.median(sizes)), extent / GRID, 1e-30)
     cells = np.maximum(1, np.ceil((hi - lo) / h).astype(np.int64))
 
+    def cell(x: np.ndarray) -> np.ndarray:
+        return np.clip(np.floor((x - lo) / h).astype(np.int64), 0, cells - 1)
+
+    def flat(c: np.ndarray) -> np.ndarray:
+        return (c[..., 2] * cells[1] + c[..., 1]) * cells[0] + c[..., 0]
+
     def expand(idx: np.ndarray, tlo: np.ndarray, thi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        c0 = np.clip(np.floor((tlo[idx] - lo) / h).astype(np.int64), 0, cells - 1)
-        c1 = np.clip(np.floor((thi[idx] - lo) / h).astype(np.int64), 0, cells - 1)
+        c0, c1 = cell(tlo[idx]), cell(thi[idx])
         span = c1 - c0 + 1
         count = span.prod(1)
         owner = np.repeat(np.arange(len(idx)), count)
         k = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
         sx, sy = span[owner, 0], span[owner, 1]
-        cx = c0[owner, 0] + k % sx
-        cy = c0[owner, 1] + (k // sx) % sy
-        cz = c0[owner, 2] + k // (sx * sy)
-        key = (cz * cells[1] + cy) * cells[0] + cx
-        return idx[owner], key
+        c = np.stack([k % sx, (k // sx) % sy, k // (sx * sy)], 1) + c0[owner]
+        return idx[owner], flat(c)
 
     a_tri, a_key = expand(ia, alo, ahi)
     b_tri, b_key = expand(ib, blo, bhi)
@@ -72,11 +73,13 @@ def _candidates(ta: np.ndarray, tb: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     stop = np.searchsorted(b_key, a_key, "right")
     n = stop - start
     pa = np.repeat(a_tri, n)
+    at = np.repeat(a_key, n)
     pb = b_tri[np.repeat(start, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
-    pair = np.unique(pa * len(tb) + pb)
-    pa, pb = pair // len(tb), pair % len(tb)
     ok = np.all((alo[pa] <= bhi[pb]) & (ahi[pa] >= blo[pb]), axis=1)
-    return pa[ok], pb[ok]
+    pa, pb, at = pa[ok], pb[ok], at[ok]
+    home = flat(cell(np.maximum(alo[pa], blo[pb])))
+    keep = home == at
+    return pa[keep], pb[keep]
 
 
 def _crossing(t: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -136,26 +139,40 @@ def intersections(
     v: np.ndarray, f: np.ndarray, face_oid: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every intersection segment between triangles of different objects: ends ``p``, ``q``
-    (S, 3) and the two faces ``fa``, ``fb`` (S,) (indices into ``f``) it lies on."""
-    tris = v[f]
-    objects = np.unique(face_oid)
-    lo_of = {o: tris[face_oid == o].reshape(-1, 3).min(0) for o in objects}
-    hi_of = {o: tris[face_oid == o].reshape(-1, 3).max(0) for o in objects}
+    (S, 3) and the two faces ``fa``, ``fb`` (S,) (indices into ``f``) it lies on. The faces of
+    one object are contiguous in ``f`` (as :func:`mi_npr.strokes.edges.mesh_arrays` gives
+    them)."""
+    z = np.zeros(0, np.int64)
+    empty = np.zeros((0, 3)), np.zeros((0, 3)), z, z
+    if len(f) == 0:
+        return empty
+    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    tlo = np.minimum(np.minimum(p0, p1), p2)
+    thi = np.maximum(np.maximum(p0, p1), p2)
+    del p0, p1, p2
+    head = np.flatnonzero(np.append(True, face_oid[1:] != face_oid[:-1]))
+    stop = np.append(head[1:], len(f))
+    olo = np.minimum.reduceat(tlo, head)
+    ohi = np.maximum.reduceat(thi, head)
+    # every pair of objects whose boxes overlap, the first of the pair earlier in ``f``
+    pairs = []
+    for r in range(0, len(head), 1024):  # rows of the object-by-object test, memory bound
+        lo, hi = olo[r : r + 1024, None], ohi[r : r + 1024, None]
+        meet = np.all((lo <= ohi[None]) & (hi >= olo[None]), axis=2)
+        i, j = np.nonzero(meet)
+        pairs.append(np.stack([i + r, j], 1)[i + r < j])
+    ka, kb = np.concatenate(pairs).T
     ps, qs, fas, fbs = [], [], [], []
-    for k, oa in enumerate(objects):
-        for ob in objects[k + 1 :]:
-            if np.any(lo_of[oa] > hi_of[ob]) or np.any(lo_of[ob] > hi_of[oa]):
-                continue
-            ia, ib = np.flatnonzero(face_oid == oa), np.flatnonzero(face_oid == ob)
-            pa, pb = _candidates(tris[ia], tris[ib])
-            for c in range(0, len(pa), CHUNK):
-                fa, fb = ia[pa[c : c + CHUNK]], ib[pb[c : c + CHUNK]]
-                ok, p, q = segments(tris[fa], tris[fb])
-                ps.append(p[ok])
-                qs.append(q[ok])
-                fas.append(fa[ok])
-                fbs.append(fb[ok])
+    for oa, ob in zip(ka.tolist(), kb.tolist(), strict=True):
+        sa, sb = slice(head[oa], stop[oa]), slice(head[ob], stop[ob])
+        pa, pb = _candidates(tlo[sa], thi[sa], tlo[sb], thi[sb])
+        for c in range(0, len(pa), CHUNK):
+            fa, fb = pa[c : c + CHUNK] + head[oa], pb[c : c + CHUNK] + head[ob]
+            ok, p, q = segments(v[f[fa]], v[f[fb]])
+            ps.append(p[ok])
+            qs.append(q[ok])
+            fas.append(fa[ok])
+            fbs.append(fb[ok])
     if not ps:
-        z = np.zeros(0, np.int64)
-        return np.zeros((0, 3)), np.zeros((0, 3)), z, z
+        return empty
     return np.concatenate(ps), np.concatenate(qs), np.concatenate(fas), np.concatenate(fbs)

@@ -17,10 +17,12 @@ over each other in order with ``A <- A (1 - a) + a`` and premultiplied colour
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from .model import Stroke, Strokes
-from .style import Style
+from .style import Style, arc_lengths
 
 
 def dash_pieces(
@@ -33,91 +35,196 @@ def dash_pieces(
     v = np.asarray(values, np.float64).reshape(len(p), -1)
     if closed and len(p) > 1:
         p, v = np.concatenate([p, p[:1]]), np.concatenate([v, v[:1]])
-    if not pattern or len(p) < 2:
+    if not pattern or len(p) < 2 or sum(pattern) <= 0:
         return [(p, v)]
-    seg = np.hypot(*np.diff(p, axis=0).T)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    total = s[-1]
-    if sum(pattern) <= 0:  # refused by the style's rule; never loop forever on it
-        return [(p, v)]
-    marks = []  # (start, end) of every "on" interval along the stroke
-    t = 0.0
-    i = 0
-    while t < total:
-        length = pattern[i % len(pattern)]
-        if i % 2 == 0 and length > 0:
-            marks.append((t, min(t + length, total)))
-        t += length
-        i += 1
-    out = []
-    for a, b in marks:
-        inner = (s > a) & (s < b)
-        ts = np.concatenate([[a], s[inner], [b]])
-        out.append((_at(p, s, ts), _at(v, s, ts)))
-    return out
+    q, w, size, _ = _dashed(p, v, np.array([len(p)]), pattern)
+    cut = np.cumsum(size)[:-1]
+    return list(zip(np.split(q, cut), np.split(w, cut), strict=True))
 
 
-def _at(values: np.ndarray, s: np.ndarray, ts: np.ndarray) -> np.ndarray:
-    """``values`` (N, C) given at arc lengths ``s`` (N,), interpolated at ``ts``."""
-    return np.stack([np.interp(ts, s, values[:, k]) for k in range(values.shape[1])], -1)
+def _dashed(
+    p: np.ndarray, v: np.ndarray, size: np.ndarray, pattern: tuple[float, ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The "on" pieces of many polylines at once (:func:`dash_pieces`): ``p`` (M, 2) and
+    ``v`` (M, C) their vertices one polyline after the other, ``size`` (S,) each one's count
+    (>= 2). Returns the pieces' points and values, each piece's size and the polyline it
+    comes from. The pattern restarts at every polyline; an odd-length pattern alternates on
+    and off through two repeats (``4`` is 4 on, 4 off)."""
+    pat = np.asarray(pattern, np.float64)
+    if len(pat) % 2:
+        pat = np.concatenate([pat, pat])
+    period = float(pat.sum())
+    offset = np.concatenate([[0.0], np.cumsum(pat)[:-1]])
+    on, on_at = pat[0::2], offset[0::2]
+    arc, total = arc_lengths(p, size)
+    first = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
+    # each "on" interval [a, b) of each polyline: period q, entry j
+    periods = np.ceil(total / period).astype(np.int64)
+    k = np.repeat(np.arange(len(size)), periods * len(on))
+    i = np.arange(len(k)) - np.repeat(
+        np.cumsum(periods * len(on)) - periods * len(on), periods * len(on)
+    )
+    a = (i // len(on)) * period + on_at[i % len(on)]
+    length = on[i % len(on)]
+    keep = (a < total[k]) & (length > 0)
+    k, a, length = k[keep], a[keep], length[keep]
+    b = np.minimum(a + length, total[k])
+    # one increasing coordinate over all polylines: a searchsorted finds any arc length
+    base = np.concatenate([[0.0], np.cumsum(total + 1.0)[:-1]])
+    g = arc + np.repeat(base, size)
+    ga, gb = a + base[k], b + base[k]
+    inner_lo = np.searchsorted(g, ga, "right")
+    inner_hi = np.maximum(np.searchsorted(g, gb, "left"), inner_lo)
+    n_inner = inner_hi - inner_lo
+    piece_size = n_inner + 2
+    starts = np.concatenate([[0], np.cumsum(piece_size)[:-1]])
+    m = int(piece_size.sum())
+    src = np.empty(m, np.int64)  # a vertex of the polyline, or -1: an interpolated end
+    src[:] = -1
+    owner = np.repeat(np.arange(len(k)), n_inner)
+    rank = np.arange(len(owner)) - np.repeat(np.cumsum(n_inner) - n_inner, n_inner)
+    src[starts[owner] + 1 + rank] = inner_lo[owner] + rank
+    out_p = np.empty((m, p.shape[1]))
+    out_v = np.empty((m, v.shape[1]))
+    inner = src >= 0
+    out_p[inner], out_v[inner] = p[src[inner]], v[src[inner]]
+    lo_seg = first[k]
+    hi_seg = first[k] + size[k] - 2
+    for at, gt in ((starts, ga), (starts + piece_size - 1, gb)):
+        j = np.clip(np.searchsorted(g, gt, "right") - 1, lo_seg, hi_seg)
+        span = g[j + 1] - g[j]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            f = np.where(span > 0, (gt - g[j]) / span, 0.0)
+        f = np.clip(f, 0.0, 1.0)[:, None]
+        out_p[at] = p[j] + f * (p[j + 1] - p[j])
+        out_v[at] = v[j] + f * (v[j + 1] - v[j])
+    return out_p, out_v, piece_size, k
 
 
 def _capsules(
-    p: np.ndarray, r: np.ndarray, o: np.ndarray, width: int, height: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """Flat pixel indices and coverage of a polyline ``p`` (K, 2) with per-vertex radius ``r``
-    and opacity ``o`` (module docstring); the same pixel may appear more than once."""
-    idx, cov = [], []
-    if len(p) == 1:
-        p, r, o = np.concatenate([p, p]), np.concatenate([r, r]), np.concatenate([o, o])
-    for k in range(len(p) - 1):
-        a, b = p[k], p[k + 1]
-        rmax = max(r[k], r[k + 1])
-        x0 = max(int(np.floor(min(a[0], b[0]) - rmax - 1)), 0)
-        x1 = min(int(np.ceil(max(a[0], b[0]) + rmax + 1)), width)
-        y0 = max(int(np.floor(min(a[1], b[1]) - rmax - 1)), 0)
-        y1 = min(int(np.ceil(max(a[1], b[1]) + rmax + 1)), height)
-        if x0 >= x1 or y0 >= y1:
-            continue
-        ys, xs = np.mgrid[y0:y1, x0:x1]
-        cx, cy = xs.ravel() + 0.5, ys.ravel() + 0.5
-        ab = b - a
-        ll = float(ab @ ab)
-        t = np.zeros_like(cx) if ll == 0 else ((cx - a[0]) * ab[0] + (cy - a[1]) * ab[1]) / ll
-        t = np.clip(t, 0.0, 1.0)
-        d = np.hypot(cx - (a[0] + t * ab[0]), cy - (a[1] + t * ab[1]))
-        rr = r[k] + t * (r[k + 1] - r[k])
-        oo = o[k] + t * (o[k + 1] - o[k])
+    p: np.ndarray,
+    r: np.ndarray,
+    o: np.ndarray,
+    size: np.ndarray,
+    width: int,
+    height: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pixels covered by polylines ``p`` (M, 2) given one after the other (``size`` (S,)
+    vertices each) with per-vertex radius ``r`` and opacity ``o`` (module docstring): each
+    covered (polyline, pixel) once, with its largest coverage (over the polyline's segments);
+    a polyline of one vertex is a dot."""
+    one = size == 1
+    if one.any():  # a dot: the segment from the vertex to itself
+        rep = np.where(np.repeat(one, size), 2, 1)
+        p, r, o = np.repeat(p, rep, 0), np.repeat(r, rep), np.repeat(o, rep)
+        size = np.where(one, 2, size)
+    last = np.cumsum(size) - 1
+    seg = np.ones(len(p), bool)
+    seg[last] = False
+    i = np.flatnonzero(seg)
+    who = np.repeat(np.arange(len(size)), size)[i]
+    a, b = p[i], p[i + 1]
+    ra, rb, oa, ob = r[i], r[i + 1], o[i], o[i + 1]
+    rmax = np.maximum(ra, rb)
+    x0 = np.maximum(np.floor(np.minimum(a[:, 0], b[:, 0]) - rmax - 1).astype(np.int64), 0)
+    x1 = np.minimum(np.ceil(np.maximum(a[:, 0], b[:, 0]) + rmax + 1).astype(np.int64), width)
+    y0 = np.maximum(np.floor(np.minimum(a[:, 1], b[:, 1]) - rmax - 1).astype(np.int64), 0)
+    y1 = np.minimum(np.ceil(np.maximum(a[:, 1], b[:, 1]) + rmax + 1).astype(np.int64), height)
+    nx, ny = np.maximum(x1 - x0, 0), np.maximum(y1 - y0, 0)
+    count = nx * ny
+    idx, cov, own = [], [], []
+    bounds = np.searchsorted(np.cumsum(count), np.arange(0, count.sum(), CHUNK), "right")
+    for c0, c1 in itertools.pairwise([*np.unique(bounds).tolist(), len(count)]):
+        sl = slice(c0, c1)
+        n = count[sl]
+        s = np.repeat(np.arange(c0, c1), n)
+        k = np.arange(len(s)) - np.repeat(np.cumsum(n) - n, n)
+        xs, ys = x0[s] + k % nx[s], y0[s] + k // nx[s]
+        cx, cy = xs + 0.5, ys + 0.5
+        ab = b[s] - a[s]
+        ll = ab[:, 0] * ab[:, 0] + ab[:, 1] * ab[:, 1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t = ((cx - a[s, 0]) * ab[:, 0] + (cy - a[s, 1]) * ab[:, 1]) / ll
+        t = np.clip(np.where(ll == 0, 0.0, t), 0.0, 1.0)
+        d = np.hypot(cx - (a[s, 0] + t * ab[:, 0]), cy - (a[s, 1] + t * ab[:, 1]))
+        rr = ra[s] + t * (rb[s] - ra[s])
+        oo = oa[s] + t * (ob[s] - oa[s])
         c = np.clip(rr + 0.5 - d, 0.0, np.minimum(1.0, 2.0 * rr)) * oo
         hit = c > 0
-        idx.append((ys.ravel() * width + xs.ravel())[hit])
+        idx.append((ys * width + xs)[hit])
         cov.append(c[hit])
+        own.append(who[s][hit])
     if not idx:
-        return np.zeros(0, np.int64), np.zeros(0)
-    return np.concatenate(idx), np.concatenate(cov)
+        z = np.zeros(0, np.int64)
+        return z, z, np.zeros(0)
+    idx, cov, own = np.concatenate(idx), np.concatenate(cov), np.concatenate(own)
+    order = np.lexsort((-cov, idx, own))  # per polyline and pixel, the largest first
+    own, idx, cov = own[order], idx[order], cov[order]
+    first = np.append(True, (idx[1:] != idx[:-1]) | (own[1:] != own[:-1]))
+    return own[first], idx[first], cov[first]
+
+
+#: Pixel tests per batch of :func:`_capsules` (memory bound).
+CHUNK = 1 << 22
+
+
+def _coverage(
+    strokes: list[Stroke], style: Style, depth_range: tuple[float, float], width: int, height: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pixels each of ``strokes`` covers: ``(stroke, pixel, coverage)``, each pair once,
+    coverage in (0, 1] (module docstring)."""
+    z = np.zeros(0, np.int64)
+    if not strokes:
+        return z, z, np.zeros(0)
+    w = style.vertex_widths(strokes, depth_range)
+    o = style.vertex_opacity(strokes, depth_range)
+    size = np.array([len(s) for s in strokes])
+    closed = np.array([s.closed and len(s) > 1 for s in strokes])
+    pts = np.concatenate([s.points for s in strokes])
+    vals = np.stack([w, o], -1)
+    if closed.any():  # a closed stroke ends where it starts
+        first = np.concatenate([[0], np.cumsum(size)[:-1]])
+        again = np.zeros(len(pts), np.int64)
+        again[first[closed] + size[closed] - 1] = 1
+        take = np.repeat(np.arange(len(pts)), again + 1)
+        extra = np.zeros(len(take), bool)
+        extra[np.cumsum(again + 1)[again == 1] - 1] = True
+        take[extra] = np.repeat(first, size)[again == 1]
+        pts, vals = pts[take], vals[take]
+        size = size + closed
+    dashed = np.array([bool(style.dashes(s)) for s in strokes]) & (size >= 2)
+    dashed &= sum(style.dash) > 0  # refused by the style's rule; never dash by zeros
+    owner = np.arange(len(strokes))
+    parts = []
+    if (~dashed).any():
+        keep = np.repeat(~dashed, size)
+        parts.append((pts[keep], vals[keep], size[~dashed], owner[~dashed]))
+    if dashed.any():
+        keep = np.repeat(dashed, size)
+        q, v, n, k = _dashed(pts[keep], vals[keep], size[dashed], tuple(style.dash))
+        parts.append((q, v, n, owner[dashed][k]))
+    p = np.concatenate([x[0] for x in parts])
+    v = np.concatenate([x[1] for x in parts])
+    n = np.concatenate([x[2] for x in parts])
+    k = np.concatenate([x[3] for x in parts])
+    who, idx, cov = _capsules(p, v[:, 0] / 2.0, v[:, 1], n, width, height)
+    if not len(idx):
+        return z, z, np.zeros(0)
+    # the pieces of one stroke (its dashes) cover a pixel once, with their largest coverage
+    stroke = k[who]
+    order = np.lexsort((-cov, idx, stroke))
+    stroke, idx, cov = stroke[order], idx[order], cov[order]
+    first = np.append(True, (idx[1:] != idx[:-1]) | (stroke[1:] != stroke[:-1]))
+    return stroke[first], idx[first], np.minimum(cov[first], 1.0)
 
 
 def stroke_coverage(
     stroke: Stroke, style: Style, depth_range: tuple[float, float], width: int, height: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """The pixels one stroke covers: unique flat indices and their coverage in (0, 1]."""
-    w = style.widths(stroke, depth_range)
-    o = style.opacity(stroke, depth_range)
-    idx, cov = [], []
-    for pts, vals in dash_pieces(
-        stroke.points, np.stack([w, o], -1), style.dashes(stroke), stroke.closed
-    ):
-        i, c = _capsules(pts, vals[:, 0] / 2.0, vals[:, 1], width, height)
-        idx.append(i)
-        cov.append(c)
-    i = np.concatenate(idx) if idx else np.zeros(0, np.int64)
-    c = np.concatenate(cov) if cov else np.zeros(0)
-    if not len(i):
-        return i, c
-    order = np.lexsort((-c, i))  # per pixel, the largest coverage first
-    i, c = i[order], c[order]
-    first = np.append(True, i[1:] != i[:-1])
-    return i[first], np.minimum(c[first], 1.0)
+    _, idx, cov = _coverage([stroke], style, depth_range, width, height)
+    order = np.argsort(idx)
+    return idx[order], cov[order]
 
 
 def rasterize(strokes: Strokes, style: Style) -> tuple[np.ndarray, np.ndarray]:
@@ -126,15 +233,23 @@ def rasterize(strokes: Strokes, style: Style) -> tuple[np.ndarray, np.ndarray]:
     h, w = strokes.height, strokes.width
     alpha = np.zeros(h * w)
     ink = np.zeros((h * w, 3))
-    for s in strokes:
-        if not style.drawn(s):
-            continue
-        i, a = stroke_coverage(s, style, strokes.depth_range, w, h)
-        if not len(i):
-            continue
-        col = np.asarray(style.kind_color(s), np.float64)
-        alpha[i] = alpha[i] * (1.0 - a) + a
-        ink[i] = ink[i] * (1.0 - a)[:, None] + col[None, :] * a[:, None]
+    drawn = [s for s in strokes if style.drawn(s)]
+    stroke, idx, a = _coverage(drawn, style, strokes.depth_range, w, h)
+    if not len(idx):
+        return alpha.reshape(h, w).astype(np.float32), ink.reshape(h, w, 3).astype(np.float32)
+    col = np.asarray([style.kind_color(s) for s in drawn], np.float64).reshape(-1, 3)
+    # strokes laid in order: per pixel, its strokes one level at a time (the k-th stroke over
+    # each pixel at level k), every pixel of a level at once
+    order = np.lexsort((stroke, idx))
+    stroke, idx, a = stroke[order], idx[order], a[order]
+    head = np.flatnonzero(np.append(True, idx[1:] != idx[:-1]))
+    level = np.arange(len(idx)) - np.repeat(head, np.diff(np.append(head, len(idx))))
+    by_level = np.argsort(level, kind="stable")
+    cut = np.searchsorted(level[by_level], np.arange(1, int(level.max()) + 1))
+    for sel in np.split(by_level, cut):
+        i, c = idx[sel], a[sel]
+        alpha[i] = alpha[i] * (1.0 - c) + c
+        ink[i] = ink[i] * (1.0 - c)[:, None] + col[stroke[sel]] * c[:, None]
     return alpha.reshape(h, w).astype(np.float32), ink.reshape(h, w, 3).astype(np.float32)
 
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -182,28 +182,64 @@ class Style:
 
     def widths(self, stroke: Stroke, depth_range: tuple[float, float]) -> np.ndarray:
         """Per-vertex widths in pixels (module docstring)."""
-        w = self.width * float(self.kind_width.get(stroke.kind, 1.0))
-        if stroke.qi > 0:
-            w *= self.hidden_width
-        out = np.full(len(stroke), w)
-        if self.depth_falloff > 0:
-            out *= 1.0 - self.depth_falloff * _normalised(stroke.depth, depth_range)
-        if self.taper > 0 and not stroke.closed and len(stroke) >= 2:
-            seg = np.hypot(*np.diff(stroke.points, axis=0).T)
-            s = np.concatenate([[0.0], np.cumsum(seg)])
-            end = np.minimum(s, s[-1] - s) / self.taper
-            x = np.clip(end, 0.0, 1.0)
-            out *= self.taper_min + (1.0 - self.taper_min) * (3 * x**2 - 2 * x**3)
-        return out
+        return self.vertex_widths([stroke], depth_range)
 
     def opacity(self, stroke: Stroke, depth_range: tuple[float, float]) -> np.ndarray:
         """Per-vertex opacity in [0, 1] (module docstring)."""
-        if not self.gray:
-            return np.ones(len(stroke))
-        d0 = _normalised(stroke.depth, depth_range)
-        behind = stroke.depth_behind if stroke.depth_behind is not None else stroke.depth
+        return self.vertex_opacity([stroke], depth_range)
+
+    def vertex_widths(
+        self, strokes: Sequence[Stroke], depth_range: tuple[float, float]
+    ) -> np.ndarray:
+        """:meth:`widths` of every vertex of ``strokes``, one stroke after the other."""
+        if not strokes:
+            return np.zeros(0)
+        size = np.array([len(s) for s in strokes])
+        base = [
+            self.width
+            * float(self.kind_width.get(s.kind, 1.0))
+            * (self.hidden_width if s.qi > 0 else 1.0)
+            for s in strokes
+        ]
+        out = np.repeat(np.asarray(base, np.float64), size)
+        if self.depth_falloff > 0:
+            depth = np.concatenate([s.depth for s in strokes])
+            out *= 1.0 - self.depth_falloff * _normalised(depth, depth_range)
+        tapered = np.array([not s.closed and len(s) >= 2 for s in strokes])
+        if self.taper > 0 and tapered.any():
+            pts = np.concatenate([s.points for s in strokes])
+            arc, total = arc_lengths(pts, size)
+            end = np.minimum(arc, np.repeat(total, size) - arc) / self.taper
+            x = np.clip(end, 0.0, 1.0)
+            factor = self.taper_min + (1.0 - self.taper_min) * (3 * x**2 - 2 * x**3)
+            out *= np.where(np.repeat(tapered, size), factor, 1.0)
+        return out
+
+    def vertex_opacity(
+        self, strokes: Sequence[Stroke], depth_range: tuple[float, float]
+    ) -> np.ndarray:
+        """:meth:`opacity` of every vertex of ``strokes``, one stroke after the other."""
+        n = sum(len(s) for s in strokes)
+        if not self.gray or n == 0:
+            return np.ones(n)
+        d0 = _normalised(np.concatenate([s.depth for s in strokes]), depth_range)
+        behind = np.concatenate(
+            [s.depth_behind if s.depth_behind is not None else s.depth for s in strokes]
+        )
         di = _normalised(behind, depth_range)
         return np.clip((di - d0) * self.c - self.t, 0.0, 1.0)
+
+
+def arc_lengths(points: np.ndarray, size: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The arc length at each vertex (M,) of polylines given one after the other (``points``
+    (M, 2), ``size`` (S,) vertices each, every size >= 1), and each one's length (S,)."""
+    first = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
+    seg = np.hypot(*np.diff(points, axis=0).T) if len(points) > 1 else np.zeros(0)
+    seg[first[1:] - 1] = 0.0  # no segment from one polyline to the next
+    run = np.concatenate([[0.0], np.cumsum(seg)])
+    owner = np.repeat(np.arange(len(size)), size)
+    arc = run - run[first][owner]
+    return arc, arc[first + np.asarray(size) - 1]
 
 
 def _normalised(z: np.ndarray, depth_range: tuple[float, float]) -> np.ndarray:

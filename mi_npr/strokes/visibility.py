@@ -94,24 +94,166 @@ def quantitative_invisibility(
     d = p - o
     dist = np.linalg.norm(d, axis=1)
     d = d / np.where(dist > 0, dist, 1.0)[:, None]
-    P = _vec(p, mi.Point3f)
-    D = _vec(d, mi.Vector3f)
-    guard_np = dist * EPSILON
-    guard = jit_array(mi.Float, guard_np.astype(np.float32))
     if own is None:
         own = np.zeros((n, 2, 2), np.int64)
     own = np.asarray(own, np.int64)
-    own_o = [jit_array(mi.UInt32, own[:, k, 0].astype(np.uint32)) for k in range(2)]
-    own_p = [jit_array(mi.UInt32, own[:, k, 1].astype(np.uint32)) for k in range(2)]
+    qi, glass = _count(
+        scene,
+        table,
+        _vec(o, mi.Point3f),
+        _vec(p, mi.Point3f),
+        _vec(d, mi.Vector3f),
+        jit_array(mi.Float, dist.astype(np.float32)),
+        [jit_array(mi.UInt32, own[:, k // 2, k % 2].astype(np.uint32)) for k in range(4)],
+        max_qi,
+    )
+    return np.asarray(qi.numpy(), np.int32), np.asarray(glass.numpy(), bool)
+
+
+class SegmentVisibility:
+    """QI and ``through_glass`` of points along ``E`` world segments ``a -> b`` (E, 3), seen
+    from ``origin``: ``at(i, u)`` is the point of film parameter ``u`` on segment ``i``
+    (perspective-correct: 3-D parameter ``s = u w_a / ((1 - u) w_b + u w_a)``, ``w`` the ends'
+    depths ``wa``, ``wb``), lying on the faces ``own`` (E, 2, 2) (``quantitative_invisibility``'s).
+    The segments are sent to Dr.Jit once; each call sends only ``(i, u)`` and computes its
+    points there (in single precision: their error, ~1e-7 of their distance, lies far inside
+    the ``EPSILON`` guard)."""
+
+    def __init__(
+        self,
+        scene: mi.Scene,
+        table: ObjectTable,
+        origin: np.ndarray,
+        a: np.ndarray,
+        b: np.ndarray,
+        wa: np.ndarray,
+        wb: np.ndarray,
+        own: np.ndarray,
+        max_qi: int,
+    ) -> None:
+        self.scene, self.table, self.max_qi = scene, table, max_qi
+        # an evaluated array, not a literal: a literal origin would compile a kernel per view
+        self.origin = _vec(np.asarray(origin, np.float64).reshape(1, 3), mi.Point3f)
+        self.a = _vec(a, mi.Point3f)
+        self.ab = _vec(np.asarray(b, np.float64) - np.asarray(a, np.float64), mi.Vector3f)
+        self.wa = jit_array(mi.Float, np.asarray(wa, np.float32))
+        self.wb = jit_array(mi.Float, np.asarray(wb, np.float32))
+        own = np.asarray(own, np.int64)
+        self.own = [jit_array(mi.UInt32, own[:, k // 2, k % 2].astype(np.uint32)) for k in range(4)]
+
+    def _points(
+        self, i: mi.UInt32, u: mi.Float
+    ) -> tuple[mi.Point3f, mi.Point3f, mi.Vector3f, mi.Float, list]:
+        """Origin, point, unit direction, distance and own faces of parameter ``u`` of each
+        segment ``i`` (class docstring)."""
+        wa, wb = dr.gather(mi.Float, self.wa, i), dr.gather(mi.Float, self.wb, i)
+        s = u * wa / ((1.0 - u) * wb + u * wa)
+        p = dr.fma(dr.gather(mi.Vector3f, self.ab, i), s, dr.gather(mi.Point3f, self.a, i))
+        o = dr.gather(mi.Point3f, self.origin, dr.zeros(mi.UInt32, dr.width(i)))
+        d = p - o
+        dist = dr.norm(d)
+        return (
+            o,
+            p,
+            d / dr.select(dist > 0, dist, 1.0),
+            dist,
+            [dr.gather(mi.UInt32, x, i) for x in self.own],
+        )
+
+    def bisect(
+        self,
+        idx: np.ndarray,
+        ulo: np.ndarray,
+        uhi: np.ndarray,
+        state: np.ndarray,
+        iterations: int,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``iterations`` bisections of each interval ``[ulo, uhi]`` (N,) of segments ``idx``
+        (N,) whose state ``2 QI + through_glass`` at ``ulo`` is ``state`` (N,): the midpoint
+        replaces the end whose state it has (``ulo`` where it equals ``state``). One kernel
+        for all of them (a loop around the QI loop); the parameters in double precision, the
+        points in single, as :meth:`at`."""
+        if len(idx) == 0:
+            return np.asarray(ulo, np.float64), np.asarray(uhi, np.float64)
+        i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
+        lo = jit_array(mi.Float64, np.asarray(ulo, np.float64))
+        hi = jit_array(mi.Float64, np.asarray(uhi, np.float64))
+        target = jit_array(mi.UInt32, np.asarray(state, np.uint32))
+        step = dr.zeros(mi.UInt32, len(idx))
+        dr.make_opaque(step)
+
+        def cond(step, lo, hi):
+            return step < iterations
+
+        def body(step, lo, hi):
+            mid = 0.5 * (lo + hi)
+            o, p, d, dist, own = self._points(i, mi.Float(mid))
+            qi, glass = _qi(self.scene, self.table, o, p, d, dist, own, self.max_qi, False)
+            same = qi * 2 + dr.select(glass, 1, 0) == target
+            return step + 1, dr.select(same, mid, lo), dr.select(same, hi, mid)
+
+        _, lo, hi = dr.while_loop((step, lo, hi), cond, body, labels=("step", "lo", "hi"))
+        dr.eval(lo, hi)
+        return np.asarray(lo.numpy(), np.float64), np.asarray(hi.numpy(), np.float64)
+
+    def at(self, idx: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """QI (N,) int32 and ``through_glass`` (N,) bool of the points ``u`` (N,) of segments
+        ``idx`` (N,) (class docstring)."""
+        n = len(idx)
+        if n == 0:
+            return np.zeros(0, np.int32), np.zeros(0, bool)
+        i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
+        uu = jit_array(mi.Float, np.asarray(u, np.float32))
+        o, p, d, dist, own = self._points(i, uu)
+        # the inputs evaluated apart: the loop's kernel stays the same from call to call
+        dr.eval(o, p, d, dist, own)
+        qi, glass = _count(self.scene, self.table, o, p, d, dist, own, self.max_qi)
+        return np.asarray(qi.numpy(), np.int32), np.asarray(glass.numpy(), bool)
+
+
+def _count(
+    scene: mi.Scene,
+    table: ObjectTable,
+    o: mi.Point3f,
+    P: mi.Point3f,
+    d: mi.Vector3f,
+    dist: mi.Float,
+    own: list,
+    max_qi: int,
+) -> tuple[mi.UInt32, mi.Bool]:
+    """The QI loop (module docstring) over evaluated rays from ``o`` in direction ``d`` to
+    the points ``P`` at distance ``dist``; ``own``: the four arrays object id, prim, object
+    id, prim of the points' faces."""
+    qi, glass = _qi(scene, table, o, P, d, dist, own, max_qi)
+    dr.eval(qi, glass)
+    return qi, glass
+
+
+def _qi(
+    scene: mi.Scene,
+    table: ObjectTable,
+    o: mi.Point3f,
+    P: mi.Point3f,
+    d: mi.Vector3f,
+    dist: mi.Float,
+    own: list,
+    max_qi: int,
+    opaque: bool = True,
+) -> tuple[mi.UInt32, mi.Bool]:
+    """:func:`_count`'s loop, traced but not evaluated; ``opaque``: its zeros made evaluated
+    arrays (not inside another loop, where nothing can be evaluated)."""
+    n = dr.width(P)
+    guard = dist * EPSILON
     qi = dr.zeros(mi.UInt32, n)
     glass = dr.zeros(mi.Bool, n)
-    active = jit_array(mi.Bool, dist > guard_np)
-    ray_o = _vec(o, mi.Point3f)
-    maxt = jit_array(mi.Float, (dist - guard_np).astype(np.float32))
+    active = dist > guard
+    ray_o = mi.Point3f(o)
+    maxt = dist - guard
     steps = dr.zeros(mi.UInt32, n)
-    dr.make_opaque(qi, glass, steps)
+    if opaque:
+        dr.make_opaque(qi, glass, steps)
     limit = max_qi + MAX_PASSES
-    d = D
+    own_o0, own_p0, own_o1, own_p1 = own
 
     def cond(ray_o, maxt, qi, glass, active, steps):
         return active
@@ -122,8 +264,8 @@ def quantitative_invisibility(
         )
         hit = si.is_valid()
         oid = table.lookup(si)
-        mine = ((oid == own_o[0]) & (si.prim_index == own_p[0])) | (
-            (oid == own_o[1]) & (si.prim_index == own_p[1])
+        mine = ((oid == own_o0) & (si.prim_index == own_p0)) | (
+            (oid == own_o1) & (si.prim_index == own_p1)
         )
         is_glass, invisible = _surface(si, hit)
         qi += dr.select(hit & ~is_glass & ~invisible & ~mine, 1, 0)
@@ -140,29 +282,35 @@ def quantitative_invisibility(
         body,
         labels=("o", "maxt", "qi", "glass", "active", "steps"),
     )
-    dr.eval(qi, glass)
-    return np.asarray(qi.numpy(), np.int32), np.asarray(glass.numpy(), bool)
+    return qi, glass
 
 
 def first_opaque_hit(
-    scene: mi.Scene, table: ObjectTable, ray: mi.Ray3f, stop_at_glass: bool = False
+    scene: mi.Scene,
+    table: ObjectTable,
+    ray: mi.Ray3f,
+    flags: mi.RayFlags = mi.RayFlags.All,
+    stop_at_glass: bool = False,
 ) -> tuple[mi.SurfaceInteraction3f, mi.UInt32, mi.Bool, mi.Bool]:
     """The first surface along each ray that is neither glass nor ``null`` (module docstring):
-    its surface interaction (``t`` from the ray's origin), object id (0: none), whether it was
-    hit and whether glass was passed on the way. ``stop_at_glass``: glass is a surface like any
+    its surface interaction (``t`` from the ray's origin; the fields ``flags`` asks for:
+    ``mi.RayFlags.Minimal`` for the position alone), object id (0: none), whether it was hit
+    and whether glass was passed on the way. ``stop_at_glass``: glass is a surface like any
     other (only ``null`` surfaces are passed), which is how a glass shape's own outline is seen."""
     d, o = ray.d, ray.o
-    si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=False)
+    si = scene.ray_intersect(ray, ray_flags=flags, coherent=False)
     glass = dr.zeros(mi.Bool, dr.width(si.t))
     hit = si.is_valid()
     is_glass, invisible = _surface(si, hit)
     passing = invisible if stop_at_glass else is_glass | invisible
+    # one kernel: testing ``passing`` alone would trace the rays again for ``si`` afterwards
+    dr.eval(si, hit, passing)
     for _ in range(MAX_PASSES):
         if not dr.any(passing):
             break
         glass |= is_glass & passing
         again = scene.ray_intersect(
-            si.spawn_ray(d), ray_flags=mi.RayFlags.All, coherent=False, active=passing
+            si.spawn_ray(d), ray_flags=flags, coherent=False, active=passing
         )
         si = dr.select(passing, again, si)
         hit = dr.select(passing, again.is_valid(), hit)
