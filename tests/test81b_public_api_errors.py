@@ -242,7 +242,6 @@ PENDING = {
     "mi_npr.dataset.check_mesh",
     "mi_npr.dataset.find_meshes",
     "mi_npr.dataset.make_dataset",
-    "mi_npr.strokes.extract.extract_strokes",
 }
 
 

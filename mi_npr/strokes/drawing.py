@@ -14,17 +14,14 @@ from typing import Any
 import mitsuba as mi
 import numpy as np
 
-from ..kernels.edges import dihedral
 from ..kernels.ink import line_width
-from ..params import Param, integer_range, one_of, real_range
+from ..params import Param, one_of
 from ..scene import ObjectTable
-from .extract import extract_strokes
+from .extract import EXTRACT_PARAMS, extract_strokes
 from .model import Strokes
 from .raster import rasterize
 from .style import STYLES, Style, dash_pattern, style_of
 
-#: The largest ``max_qi``.
-MAX_QI = 64
 #: The longest segment of a stroke whose opacity varies along it (eq. 5.1), in pixels.
 GRAY_SPACING = 2.0
 
@@ -44,24 +41,7 @@ STROKES_PARAMS: tuple[Param, ...] = (
     Param(
         "dash", str, "", "dash pattern of hidden lines, px: on,off,... (unset: the style's)", _dash
     ),
-    Param(
-        "crease_angle", float, 134.0, "draw creases below this dihedral angle (0 = off)", dihedral
-    ),
-    Param(
-        "chain_angle",
-        float,
-        60.0,
-        "strokes turn by less than this at a joint, degrees",
-        real_range(0, 180),
-    ),
-    Param(
-        "max_qi",
-        int,
-        1,
-        "hidden lines behind more surfaces than this are not drawn (1: an object's own back "
-        "edges and what lies behind one sheet)",
-        integer_range(1, MAX_QI),
-    ),
+    *EXTRACT_PARAMS,
 )
 
 
@@ -99,7 +79,7 @@ def draw_strokes(
     ``params`` (all of :data:`STROKES_PARAMS`, checked). ``depth_range``: the frame's nearest
     and farthest finite depth (the G-buffer's ``Z``)."""
     style = style_from(params)
-    kept = ("crease_angle", "chain_angle", "max_qi")
+    kept = ("crease_angle", "chain_angle", "max_qi", "raytree_depth")
     strokes = extract_strokes(
         scene,
         sensor,
@@ -107,6 +87,7 @@ def draw_strokes(
         crease_angle=params["crease_angle"],
         chain_angle=params["chain_angle"],
         max_qi=params["max_qi"],
+        raytree_depth=params["raytree_depth"],
         depth_range=depth_range,
         params={k: params[k] for k in kept},
         resample=GRAY_SPACING if style.gray else None,

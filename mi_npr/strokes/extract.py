@@ -31,13 +31,18 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..errors import ParameterError, shown
 from ..gbuffer import Projection
+from ..kernels.edges import dihedral
+from ..params import Param, check_arg, integer_range, real_range
 from ..raycast import cast, film_grid, pixel_rays
+from ..raytree.tracer import MAX_DEPTH
 from ..scene import ObjectTable, object_table
 from .chain import chain_order
 from .edges import FeatureEdges, Projector, feature_edges
 from .model import KINDS, Stroke, Strokes
 from .outlines import outline_strokes
+from .raytree import raytree_strokes
 from .visibility import SegmentVisibility, first_opaque_hit, jit_array
 
 #: Film distance between visibility samples along an edge, in pixels.
@@ -339,6 +344,62 @@ def _add_depth_behind(
         s.depth_behind = part
 
 
+#: The largest ``max_qi``.
+MAX_QI = 64
+
+#: What the extraction takes (the ``strokes`` drawing's geometric parameters; the defaults are
+#: the drawing's).
+EXTRACT_PARAMS: tuple[Param, ...] = (
+    Param(
+        "crease_angle", float, 134.0, "draw creases below this dihedral angle (0 = off)", dihedral
+    ),
+    Param(
+        "chain_angle",
+        float,
+        60.0,
+        "strokes turn by less than this at a joint, degrees",
+        real_range(0, 180),
+    ),
+    Param(
+        "max_qi",
+        int,
+        1,
+        "hidden lines behind more surfaces than this are not drawn (1: an object's own back "
+        "edges and what lies behind one sheet)",
+        integer_range(1, MAX_QI),
+    ),
+    Param(
+        "raytree_depth",
+        int,
+        0,
+        "levels of ray trees for reflection, refraction and shadow strokes (0: none)",
+        integer_range(0, MAX_DEPTH),
+    ),
+)
+_P = {p.name: p for p in EXTRACT_PARAMS}
+
+
+def _arg(name: str, value: Any) -> Any:
+    """``value`` checked against :data:`EXTRACT_PARAMS` (``None`` is no value here)."""
+    if value is None:
+        raise ParameterError(f"extract_strokes: parameter {name!r} = None: give a value")
+    return check_arg("extract_strokes", _P[name], value)
+
+
+def _depth_range(value: Any) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in value)
+        ok = np.isfinite(lo) and np.isfinite(hi) and lo <= hi
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ParameterError(
+            f"extract_strokes: depth_range = {shown(value)}: expected (near, far), finite, "
+            "near <= far"
+        )
+    return lo, hi
+
+
 def extract_strokes(
     scene: mi.Scene,
     sensor: mi.Sensor,
@@ -347,6 +408,7 @@ def extract_strokes(
     crease_angle: float = 134.0,
     chain_angle: float = 60.0,
     max_qi: int = 8,
+    raytree_depth: int = 0,
     depth_range: tuple[float, float] | None = None,
     objects: Mapping[int, str] | None = None,
     params: Mapping[str, Any] | None = None,
@@ -359,13 +421,27 @@ def extract_strokes(
     per-vertex attributes such as ``depth_behind`` are sampled along straight edges too;
     ``max_qi``: the parts of mesh edges behind more than ``max_qi`` surfaces are left out (the
     visibility rays stop counting there, which is what makes hidden lines affordable on a
-    large model, where most edges lie deep inside it)."""
+    large model, where most edges lie deep inside it); ``raytree_depth``: levels of the ray
+    trees whose reflection, refraction and shadow lines are added (:mod:`~mi_npr.strokes.raytree`;
+    0: none; the hard-shadow lights). Parameters as in :data:`EXTRACT_PARAMS`."""
+    crease_angle = _arg("crease_angle", crease_angle)
+    chain_angle = _arg("chain_angle", chain_angle)
+    max_qi = _arg("max_qi", max_qi)
+    raytree_depth = _arg("raytree_depth", raytree_depth)
+    if depth_range is not None:
+        depth_range = _depth_range(depth_range)
+    if resample is not None and not (
+        isinstance(resample, (int, float)) and not isinstance(resample, bool) and resample > 0
+    ):
+        raise ParameterError(f"extract_strokes: resample = {shown(resample)}: must be > 0 px")
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
     camera = proj.camera
     edges = feature_edges(table, proj.origin, crease_angle)
     strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)
     strokes += outline_strokes(scene, sensor, table, camera)
+    if raytree_depth:
+        strokes += raytree_strokes(scene, sensor, table, camera, raytree_depth)
     strokes = [s for s in strokes if len(s) >= 2]
     if resample:
         strokes = resampled_all(strokes, resample)

@@ -17,7 +17,7 @@ from ..errors import ParameterError
 from ..gbuffer import Projection
 
 #: Every edge kind, in drawing order (later kinds are drawn over earlier ones). ``reflection``,
-#: ``refraction`` and ``shadow`` are reserved for strokes of the ray trees (not produced yet).
+#: ``refraction`` and ``shadow`` are the ray trees' lines (:mod:`mi_npr.strokes.raytree`).
 KINDS = (
     "silhouette",
     "border",
