@@ -17,6 +17,12 @@ radiance 0.3 and one directional key light of irradiance 2.5 falling along
 Mitsuba's ``direct`` integrator; a pinhole camera of 40 degrees horizontal field of view with a
 box filter (each pixel's depth, normal and ids are those of its own samples).
 
+**Beauty.** ``R G B`` (and ``<view>.png``) are the studio's ``direct`` render only when
+``beauty`` is asked for; by default they are the G-buffer pass's headlight shading
+(:func:`mi_npr.render.render_gbuffer` without an integrator), which costs no render of its own.
+The views of a mesh are rendered ``views_per_launch`` at a time in one launch
+(:func:`mi_npr.render.render_views`): the files are those of one view at a time, bit for bit.
+
 **Views** (:mod:`mi_npr.views`): ``sphere:N`` (the upper half of the viewing sphere), ``orbit:N``
 (about +y, starting on +z, 20 degrees above the equator), ``random:N`` (uniform on the whole
 sphere, seeded by ``seed``), all at the distance from which the unit sphere fits the image with
@@ -25,7 +31,7 @@ scene camera's distance, which is that same distance.
 
 **Layout of OUT.** ``scenes/<stem>.xml`` one scene per good mesh, ``meshes/<stem>.ply`` the
 converted meshes, ``<stem>/<view>.exr`` (depth ``Z``, normals ``N``, ``object_id``,
-``prim_id``, the beauty), ``<stem>/<view>.png`` (the beauty), ``<stem>/<view>_lines.png`` /
+``prim_id``, ``R G B``), ``<stem>/<view>.png`` (``R G B``), ``<stem>/<view>_lines.png`` /
 ``_lines.svg`` (the line drawing), ``<stem>/<view>_strokes.svg`` / ``.json`` / ``.png`` (the
 strokes), ``manifest.jsonl`` (the batch's log), and :data:`INDEX` ``dataset.jsonl``, the
 dataset's manifest, rewritten whole by every run: one row per view of every good mesh
@@ -48,7 +54,7 @@ import json
 import math
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -69,6 +75,13 @@ DATASET_PARAMS: tuple[Param, ...] = (
     Param("height", int, 256, "image height in pixels", integer_range(1, MAX_RES)),
     Param("spp", int, 16, "samples per pixel of the beauty", integer_range(1, MAX_SPP)),
     Param("seed", int, 0, "seed of the random:N views and of the samplers", seed_rule),
+    replace(batch.LAUNCH_PARAMS[0], default=0),
+    replace(
+        batch.LAUNCH_PARAMS[1],
+        default=False,
+        doc="render the studio's beauty (direct illumination, spp samples); false: the "
+        "G-buffer pass's headlight shading",
+    ),
 )
 #: Formats Mitsuba loads itself.
 NATIVE = (".obj", ".ply")
@@ -333,13 +346,17 @@ def make_dataset(
     spp: int | None = None,
     workers: int | None = None,
     resume: bool = False,
+    views_per_launch: int = 0,
+    beauty: bool = False,
     **options: Any,
 ) -> list[dict[str, Any]]:
     """Render every good mesh of ``meshes`` (:func:`find_meshes`) in the studio from every view
     of ``views`` into ``out`` (module docstring); the rows of :data:`INDEX`, bad meshes first.
 
     ``seed`` seeds the ``random:N`` views (``random:N:SEED`` given in full wins) and the
-    samplers; ``spp``: the studio's 16 when ``None``; ``options`` go to
+    samplers; ``spp``: the studio's 16 when ``None`` (the beauty's; without ``beauty`` the
+    G-buffer pass's headlight shading fills ``R G B``); ``views_per_launch`` views of a mesh
+    share one launch (0: :func:`mi_npr.render.views_per_launch`); ``options`` go to
     :func:`mi_npr.batch.run` (``params``, ``threads_per_worker``, ``scheduler``, ``client``,
     ``retries``, ``job_timeout``, ``progress``, ``line_color``, ``paper``).
 
@@ -392,6 +409,8 @@ def make_dataset(
             seed=seed,
             workers=workers,
             resume=resume,
+            views_per_launch=views_per_launch,
+            beauty=beauty,
             **options,
         )
         for r in rows:

@@ -239,3 +239,104 @@ def test10_out_inside_the_folder_searched(tmp_path):
     # OUT/meshes/cube.ply is no input: no clash of stems, the same one mesh again
     again = D.make_dataset([tmp_path], tmp_path / "out", "orbit:1", drawings=("lines",), **kw)
     assert [r["mesh"] for r in again] == [r["mesh"] for r in first] == [str(tmp_path / "cube.stl")]
+
+
+# -- many views in one launch -------------------------------------------------------------
+
+
+def _sensors(scene_path, spec, res):
+    from mi_npr.camera import sensor_for
+    from mi_npr.session import SceneSession
+
+    s = SceneSession.open(scene_path, resolution=res)
+    return s, [
+        sensor_for(c, s.sensor) for _, c in V.cameras(V.parse_views(spec), s.scene, s.sensor)
+    ]
+
+
+@pytest.mark.parametrize(
+    ("scene", "spec", "res"),
+    [
+        ("scenes_xml/scene1.xml", "orbit:3", (40, 30)),
+        ("scenes_xml/scene2.xml", "sphere:4", (33, 17)),
+    ],
+)
+def test11_views_in_one_launch_equal_the_views_one_by_one(scene, spec, res):
+    """Every layer of every view of :func:`render_views` is bit for bit the layer of the pass
+    of that view alone (the reference: ``render_gbuffer`` on the view's own sensor)."""
+    from mi_npr.render import render_gbuffer, render_views
+    from mi_npr.session import SceneSession
+
+    s, sensors = _sensors(scene, spec, res)
+    many = render_views(s, sensors)
+    assert len(many) == len(sensors)
+    for gb, sensor in zip(many, sensors, strict=True):
+        one = render_gbuffer(SceneSession(s.scene, sensor, s.source))
+        assert gb.names == one.names and gb.objects == one.objects
+        assert gb.metadata == one.metadata and gb.camera == one.camera
+        for name in one.names:
+            a, b = gb.numpy(name), one.numpy(name)
+            assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), name
+        assert (one.object_id > 0).any()  # the views see something
+
+
+def test12_views_in_one_launch_with_the_beauty():
+    from mi_npr.render import render_gbuffer, render_views
+    from mi_npr.session import SceneSession
+
+    s, sensors = _sensors("scenes_xml/scene1.xml", "orbit:2", (24, 16))
+    integrator = s.scene.integrator()
+    many = render_views(s, sensors, integrator, spp=2, seed=5)
+    for gb, sensor in zip(many, sensors, strict=True):
+        one = render_gbuffer(
+            SceneSession(s.scene, sensor, s.source), beauty=integrator, spp=2, seed=5
+        )
+        for name in one.names:
+            assert gb.numpy(name).tobytes() == one.numpy(name).tobytes(), name
+        assert gb.metadata["mi_npr/beauty"] != "headlight"
+
+
+def test13_views_that_differ_by_more_than_their_pose_are_refused():
+    from mi_npr.camera import Camera, sensor_for
+    from mi_npr.render import render_views
+
+    s, sensors = _sensors("scenes_xml/scene1.xml", "orbit:2", (24, 16))
+    cam = Camera((0.0, 1.0, 5.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 30.0)  # another fov
+    with pytest.raises(ParameterError, match="one film size, field of view"):
+        render_views(s, [*sensors, sensor_for(cam, s.sensor)])
+    assert render_views(s, []) == []
+
+
+def test14_dataset_files_do_not_depend_on_views_per_launch(tmp_path):
+    """One view per launch and three: the same files, byte for byte except the EXR's
+    compression of equal layers (compared layer by layer), and the same manifest rows."""
+    meshes = tmp_path / "m"
+    meshes.mkdir()
+    write_ply(meshes / "box.ply", *box(SIZE, CENTRE))
+    (meshes / "tet.obj").write_text(TET)
+    kw = {"width": 32, "height": 24, "workers": 0, "progress": False, "drawings": ("lines",)}
+    runs = {
+        k: D.make_dataset(
+            [meshes], tmp_path / f"k{k}", "random:4", seed=1, views_per_launch=k, **kw
+        )
+        for k in (1, 3)
+    }
+    strip = ("job", "seconds", "finished", "worker")
+    for a, b in zip(runs[1], runs[3], strict=True):
+        assert {k: v for k, v in a.items() if k not in strip} == {
+            k: v for k, v in b.items() if k not in strip
+        }
+        assert a["status"] == "done" and set(a["files"]) >= {"exr", "png", "lines.png", "lines.svg"}
+        for kind, name in a["files"].items():
+            one, three = tmp_path / "k1" / name, tmp_path / "k3" / b["files"][kind]
+            if kind == "exr":
+                g1, g3 = read_exr(one), read_exr(three)
+                assert g1.names == g3.names
+                for layer in g1.names:
+                    assert g1.numpy(layer).tobytes() == g3.numpy(layer).tobytes(), layer
+                assert g1.metadata["mi_npr/beauty"] == "headlight"  # no beauty unless asked
+            else:  # the SVG's title names its scene, in its own OUT
+                here = str(tmp_path / "k3").encode()
+                assert one.read_bytes().replace(str(tmp_path / "k1").encode(), here) == (
+                    three.read_bytes()
+                ), kind

@@ -66,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
             width=args.width,
             height=args.height,
             spp=args.spp,
+            views_per_launch=args.views_per_launch,
+            beauty=args.beauty,
             params=drawing_values(args),
             **cluster_options(args),
             progress=bars,
