@@ -36,9 +36,14 @@ converted meshes, ``<stem>/<view>.exr`` (depth ``Z``, normals ``N``, ``object_id
 strokes), ``manifest.jsonl`` (the batch's log), and :data:`INDEX` ``dataset.jsonl``, the
 dataset's manifest, rewritten whole by every run: one row per view of every good mesh
 (``mesh``, ``mesh_hash``, ``normalisation``, ``triangles``, ``scene``, ``view``, ``camera``,
-``files`` by kind, ``status``, ``error``) and one per bad mesh (``view`` null, ``status``
-``skipped``, ``error`` the reason), and ``dataset.parquet`` with the same rows when ``pyarrow``
-is installed (nested fields as JSON text).
+``files`` by kind, ``status``, ``error``, ``warning``) and one per bad mesh (``view`` null,
+``status`` ``skipped``, ``error`` the reason), and ``dataset.parquet`` with the same rows when
+``pyarrow`` is installed (nested fields as JSON text).
+
+**Non-manifold meshes** (an edge shared by more than two triangles, vertices at one position
+counted as one, :func:`non_manifold_edges`) render as well as any other: ray casting and the
+line chain need no manifold. So by default (``non_manifold="warn"``) such a mesh is rendered and
+every row of it has ``warning`` naming the count; ``"skip"`` makes it a bad mesh instead.
 
 Ambiguities resolved: two meshes of one file stem are refused before anything runs (their
 outputs would share a folder); a mesh named like a folder of OUT (:data:`RESERVED`) is a bad
@@ -66,8 +71,22 @@ from .camera import fit_distance
 from .errors import InputError, ParameterError, one_line
 from .io._atomic import atomic_output, check_writable_dir
 from .meshes import write_ply
-from .params import MAX_RES, MAX_SPP, Param, integer_range, seed_rule
+from .params import (
+    MAX_RES,
+    MAX_SPP,
+    Param,
+    check_arg,
+    entry,
+    integer_range,
+    one_of,
+    seed_rule,
+)
 from .views import FRAME_MARGIN
+
+#: What a non-manifold mesh (an edge shared by more than two triangles) gets: ``warn`` renders
+#: it and says so in its rows, ``skip`` reports it as a bad mesh.
+NON_MANIFOLD = ("warn", "skip")
+
 
 #: The film, samples and seed of a dataset (``mi-npr dataset``'s flags).
 DATASET_PARAMS: tuple[Param, ...] = (
@@ -75,6 +94,14 @@ DATASET_PARAMS: tuple[Param, ...] = (
     Param("height", int, 256, "image height in pixels", integer_range(1, MAX_RES)),
     Param("spp", int, 16, "samples per pixel of the beauty", integer_range(1, MAX_SPP)),
     Param("seed", int, 0, "seed of the random:N views and of the samplers", seed_rule),
+    Param(
+        "non_manifold",
+        str,
+        "warn",
+        "a mesh with an edge shared by more than two triangles: warn (rendered, its manifest "
+        "rows say so) or skip (a bad mesh)",
+        one_of(NON_MANIFOLD),
+    ),
     replace(batch.LAUNCH_PARAMS[0], default=0),
     replace(
         batch.LAUNCH_PARAMS[1],
@@ -145,6 +172,7 @@ class Mesh:
     radius: float = 0.0
     triangles: int = 0
     error: str | None = None
+    warning: str | None = None
 
 
 def find_meshes(
@@ -219,10 +247,30 @@ def _welded(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(m.vertices), np.asarray(m.faces)
 
 
-def check_mesh(path: str, out: Path) -> Mesh:
+def non_manifold_edges(V: np.ndarray, F: np.ndarray) -> int:
+    """How many edges of the triangles ``F`` are shared by more than two of them, vertices at
+    one position counted as one (an STL repeats every corner per triangle); an edge is an
+    unordered pair of distinct positions, so a degenerate triangle adds only its real edges.
+
+    >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], float)
+    >>> non_manifold_edges(V, np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]]))  # a fin on 0-1
+    1
+    """
+    _, weld = np.unique(np.asarray(V), axis=0, return_inverse=True)
+    f = weld.reshape(-1)[np.asarray(F, np.int64)]
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    e = np.sort(e[e[:, 0] != e[:, 1]], axis=1)
+    if len(e) == 0:
+        return 0
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return int(np.count_nonzero(counts > 2))
+
+
+def check_mesh(path: str, out: Path, non_manifold: str = "warn") -> Mesh:
     """``path`` checked (unreadable, empty, 0 faces, non-finite or out-of-range vertices, no
-    extent, refused by Mitsuba) and, for a converted format, written as PLY into
-    ``out/meshes``; never raises for a bad mesh: its :class:`Mesh` has the reason."""
+    extent, refused by Mitsuba, non-manifold with ``non_manifold="skip"``) and, for a
+    converted format, written as PLY into ``out/meshes``; never raises for a bad mesh: its
+    :class:`Mesh` has the reason (a non-manifold mesh with ``"warn"``: its ``warning``)."""
     stem = Path(path).stem
     ext = Path(path).suffix.lower()
     if ext not in NATIVE + CONVERTED:
@@ -255,6 +303,13 @@ def check_mesh(path: str, out: Path) -> Mesh:
         why = "no extent: every vertex is at one point"
     if why is not None:
         return Mesh(path, stem, digest, error=f"{path}: {why}")
+    warning = None
+    shared = non_manifold_edges(V, F)
+    if shared:
+        s = "s" if shared > 1 else ""
+        warning = f"{path}: non-manifold: {shared} edge{s} shared by more than two triangles"
+        if non_manifold == "skip":
+            return Mesh(path, stem, digest, error=warning)
     source = path
     if ext in CONVERTED:
         source = str(out / "meshes" / f"{stem}.ply")
@@ -273,7 +328,8 @@ def check_mesh(path: str, out: Path) -> Mesh:
     radius = float(np.linalg.norm(hi - lo) / 2)
     if not (math.isfinite(radius) and radius > 0):
         return Mesh(path, stem, digest, error=f"{path}: no extent")
-    return Mesh(path, stem, digest, source, centre, radius, int(shape.face_count()))  # type: ignore[arg-type]
+    triangles = int(shape.face_count())
+    return Mesh(path, stem, digest, source, centre, radius, triangles, warning=warning)  # type: ignore[arg-type]
 
 
 def _num(v: float) -> str:
@@ -348,6 +404,7 @@ def make_dataset(
     resume: bool = False,
     views_per_launch: int = 0,
     beauty: bool = False,
+    non_manifold: str = "warn",
     **options: Any,
 ) -> list[dict[str, Any]]:
     """Render every good mesh of ``meshes`` (:func:`find_meshes`) in the studio from every view
@@ -356,7 +413,9 @@ def make_dataset(
     ``seed`` seeds the ``random:N`` views (``random:N:SEED`` given in full wins) and the
     samplers; ``spp``: the studio's 16 when ``None`` (the beauty's; without ``beauty`` the
     G-buffer pass's headlight shading fills ``R G B``); ``views_per_launch`` views of a mesh
-    share one launch (0: :func:`mi_npr.render.views_per_launch`); ``options`` go to
+    share one launch (0: :func:`mi_npr.render.views_per_launch`); ``non_manifold`` (one of
+    :data:`NON_MANIFOLD`): what a mesh with an edge shared by more than two triangles gets;
+    ``options`` go to
     :func:`mi_npr.batch.run` (``params``, ``threads_per_worker``, ``scheduler``, ``client``,
     ``retries``, ``job_timeout``, ``progress``, ``line_color``, ``paper``).
 
@@ -383,7 +442,8 @@ def make_dataset(
         if stem in stems:
             raise ParameterError(f"{stems[stem]} and {p} would both write outputs named {stem!r}")
         stems[stem] = p
-    checked = [check_mesh(p, outdir) for p in paths]
+    non_manifold = check_arg("dataset", entry(DATASET_PARAMS, "non_manifold"), non_manifold)
+    checked = [check_mesh(p, outdir, non_manifold) for p in paths]
     good = [m for m in checked if m.error is None]
     index: list[dict[str, Any]] = [
         {
@@ -427,6 +487,7 @@ def make_dataset(
                     "files": _files(r),
                     "status": r.get("status"),
                     "error": r.get("error"),
+                    "warning": m.warning,
                 }
             )
     write_index(outdir, index)
@@ -443,7 +504,7 @@ def write_index(outdir: Path, rows: list[dict[str, Any]]) -> None:
         import pyarrow.parquet as pq
     except ImportError:
         return
-    columns = ("mesh", "mesh_hash", "triangles", "scene", "view", "status", "error")
+    columns = ("mesh", "mesh_hash", "triangles", "scene", "view", "status", "error", "warning")
     nested = ("normalisation", "camera", "files")
     table = pa.table(
         {
