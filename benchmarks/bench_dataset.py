@@ -18,9 +18,10 @@ Meshes (generated here, written as PLY): a bumpy latitude-longitude sphere of ~1
   Freestyle and the Z, normal and object-index passes in a multilayer EXR, the time of its render
   loop (start-up and import excluded; printed separately); skipped with the reason when
   ``blender`` is not on PATH.
-- **2 workers against 1**: a LocalCluster of 1 process (2 Dr.Jit threads) and of 2 (1 thread
-  each), warmed up, on dataset jobs of over a second each (the beauty at 256 spp).
-- **soak**: ``--soak N`` small jobs (16x16 views of a tetrahedron, lines) in this process in
+- **2 workers against 1**: LocalClusters of 1 process with 1 Dr.Jit thread, of 1 with 2, and of
+  2 with 1 thread each, warmed up, on dataset jobs of over a second each (the beauty at 128 spp,
+  one view a job).
+- **soak**: ``--soak N`` small jobs (16x16 views of a tetrahedron, lines) in a fresh process, in
   rounds of 100, the resident set size after each round: growth from the first round to the
   last, and the peak.
 - **4K memory**: in a fresh process, the peak resident set size (minus the size before) of a
@@ -266,27 +267,29 @@ def workers_speedup(mesh: Path, work: Path, n: int) -> dict[str, Any]:
     kw = {
         "width": RES,
         "height": RES,
-        "spp": 256,
+        "spp": 128,
         "beauty": True,
         "views_per_launch": 1,
         "drawings": ("lines",),
         "progress": False,
     }
     out: dict[str, Any] = {"jobs": n}
-    for workers, threads in ((1, 2), (2, 1)):
+    for workers, threads in ((1, 1), (1, 2), (2, 1)):
         with mi_npr.batch.local_cluster(workers) as cluster, Client(cluster) as client:
-            D.make_dataset([mesh], work / f"wwarm{workers}", "orbit:2", client=client,
+            name = f"workers{workers}x{threads}"
+            D.make_dataset([mesh], work / f"warm_{name}", "orbit:2", client=client,
                            threads_per_worker=threads, **kw)  # fmt: skip
             t0 = time.perf_counter()
-            rows = D.make_dataset([mesh], work / f"w{workers}", f"orbit:{n}", client=client,
+            rows = D.make_dataset([mesh], work / name, f"orbit:{n}", client=client,
                                   threads_per_worker=threads, **kw)  # fmt: skip
             seconds = time.perf_counter() - t0
         assert all(r["status"] == "done" for r in rows)
-        job_s = [json.loads(x)["seconds"] for x in (work / f"w{workers}" / "manifest.jsonl")
+        job_s = [json.loads(x)["seconds"] for x in (work / name / "manifest.jsonl")
                  .read_text().splitlines()]  # fmt: skip
-        out[f"workers{workers}_s"] = seconds
-        out[f"workers{workers}_median_job_s"] = statistics.median(job_s)
-    out["speedup_2_vs_1"] = out["workers1_s"] / out["workers2_s"]
+        out[f"{name}_s"] = seconds
+        out[f"{name}_median_job_s"] = statistics.median(job_s)
+    out["speedup_2x1_vs_1x1"] = out["workers1x1_s"] / out["workers2x1_s"]
+    out["speedup_2x1_vs_1x2"] = out["workers1x2_s"] / out["workers2x1_s"]
     return out
 
 
@@ -421,6 +424,10 @@ def _alternate(fns: dict[str, Any], repeat: int, ours: str, anchor: str) -> dict
 
 
 def main() -> int:
+    if "--soak-child" in sys.argv:  # a fresh process: nothing of the runs before it
+        i = sys.argv.index("--soak-child")
+        print(json.dumps(soak(Path(sys.argv[i + 1]), int(sys.argv[i + 2]))))
+        return 0
     if "--memory-child" in sys.argv:
         i = sys.argv.index("--memory-child")
         mesh, work, w, h, aa = sys.argv[i + 1 : i + 6]
@@ -473,9 +480,16 @@ def main() -> int:
         mesh10k = make_mesh(work, "10k")
         if not args.quick:
             results["workers"] = workers_speedup(mesh10k, work, 8)
-            print(f"\n2 workers vs 1 (jobs ~{results['workers']['workers1_median_job_s']:.2f} s):"
-                  f" {results['workers']['speedup_2_vs_1']:.2f}x")  # fmt: skip
-        results["soak"] = soak(work, args.soak)
+            wk = results["workers"]
+            print(f"\n2 workers (1 thread each) vs 1 worker "
+                  f"(jobs ~{wk['workers1x1_median_job_s']:.2f} s): "
+                  f"{wk['speedup_2x1_vs_1x1']:.2f}x against 1 thread, "
+                  f"{wk['speedup_2x1_vs_1x2']:.2f}x against 2 threads")  # fmt: skip
+        p = subprocess.run(
+            [sys.executable, __file__, "--soak-child", str(work), str(args.soak)],
+            capture_output=True, text=True, check=True,
+        )  # fmt: skip
+        results["soak"] = json.loads(p.stdout.strip().splitlines()[-1])
         s = results["soak"]
         print(f"\nsoak {s['jobs']} jobs: RSS {s['rss_mb_first_round']:.0f} -> "
               f"{s['rss_mb_last_round']:.0f} MB ({100 * s['growth_first_to_last']:+.1f}%), "
