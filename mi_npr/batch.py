@@ -562,14 +562,15 @@ def _launched(
     view spec's views in order, :attr:`BatchSettings.views_per_launch` at a time), rendered
     here unless this worker's last launch holds it; without :attr:`BatchSettings.beauty`, no
     beauty."""
-    ids = list(cams)
+    if _LAUNCH.get("cams") is not cams:  # the views' order, once per scene (not once a job)
+        _LAUNCH["cams"], _LAUNCH["order"] = cams, {v: i for i, v in enumerate(cams)}
     w, h = (int(v) for v in session.sensor.film().crop_size())
     k = settings.views_per_launch or views_per_launch(w, h)
-    first = ids.index(job.view) // k * k
+    first = _LAUNCH["order"][job.view] // k * k
     key = (job.scene, job.scene_hash, id(session), settings, first)
     if _LAUNCH["key"] != key or job.view not in _LAUNCH["views"]:
         _LAUNCH["key"], _LAUNCH["views"] = None, {}  # the old launch's memory goes first
-        group = ids[first : first + k]
+        group = list(itertools.islice(cams, first, first + k))
         sensors = [_sensor(settings, session, v, cams[v]) for v in group]
         integ = session.scene.integrator()
         beauty = None
