@@ -384,14 +384,15 @@ def _rss_mb() -> float:
 def test16_memory_and_kernels_stay_flat_over_many_jobs(tmp_path):
     """120 jobs in this process: 10 meshes of different sizes, 12 views each. From the fourth
     mesh on, the resident set grows by less than 10% (the caches are bounded: scenes, the launch
-    of views, Dr.Jit's kernels) and Dr.Jit compiles almost no kernel: a kernel that baked in a
-    view's or a mesh's values would be compiled again for every one of them."""
+    of views, Dr.Jit's kernels) and almost no kernel is new: a kernel that baked in a view's or
+    a mesh's values (a literal camera axis did) is a kernel of its own for every one of them,
+    kept in Dr.Jit's cache for good."""
     import drjit as dr
 
     from mi_npr import batch
 
     kw = {"width": 16, "height": 16, "workers": 0, "progress": False, "drawings": ("lines",)}
-    rss, compiled = [], []
+    rss, new_kernels, seen = [], [], set()
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     try:
         for m in range(10):
@@ -402,10 +403,13 @@ def test16_memory_and_kernels_stay_flat_over_many_jobs(tmp_path):
             dr.kernel_history()  # clears it
             rows = D.make_dataset([folder], tmp_path / "out", "random:12", seed=m, **kw)
             assert [r["status"] for r in rows] == ["done"] * 12
-            compiled.append(sum(1 for k in dr.kernel_history() if not k.get("cache_hit", True)))
+            hashes = {str(k["hash"]) for k in dr.kernel_history() if "hash" in k}
+            new_kernels.append(len(hashes - seen))  # in memory or on disk, a kernel of its own
+            seen |= hashes
             rss.append(_rss_mb())
     finally:
         dr.set_flag(dr.JitFlag.KernelHistory, False)
     assert max(rss[3:]) < 1.1 * rss[3], rss
-    assert sum(compiled[3:]) <= 7, compiled  # a few for rare paths (seams), never one a view
+    # a few a mesh (its virtual calls), never one a view: 12 views would make 12
+    assert max(new_kernels[3:]) <= 5, new_kernels
     assert len(batch._LAUNCH["views"]) < 12 and len(batch._SCENES) <= batch.SCENE_CACHE
