@@ -21,7 +21,8 @@ box filter (each pixel's depth, normal and ids are those of its own samples).
 ``beauty`` is asked for; by default they are the G-buffer pass's headlight shading
 (:func:`mi_npr.render.render_gbuffer` without an integrator), which costs no render of its own.
 The views of a mesh are rendered ``views_per_launch`` at a time in one launch
-(:func:`mi_npr.render.render_views`): the files are those of one view at a time, bit for bit.
+(:func:`mi_npr.render.render_views`): the files are those of one view at a time, bit for bit
+(a beauty render to its last bits: Mitsuba's film adds samples in its threads' order).
 
 **Views** (:mod:`mi_npr.views`): ``sphere:N`` (the upper half of the viewing sphere), ``orbit:N``
 (about +y, starting on +z, 20 degrees above the equator), ``random:N`` (uniform on the whole

@@ -432,9 +432,10 @@ def render_views(
     cameras, :func:`mi_npr.camera.sensor_for`); view ``k`` equals
     ``render_gbuffer(scene, sensors[k], beauty, spp, seed)`` layer for layer, bit for bit (the
     rays are the sensor's own, :func:`mi_npr.raycast.posed_rays`). ``beauty`` (an integrator)
-    renders each view's ``R G B`` on its own; without it, the headlight shading of the
-    G-buffer pass, in the same launch. Memory grows with ``V x W x H``: callers split long
-    lists (:func:`views_per_launch`).
+    renders each view's ``R G B`` on its own (Mitsuba's film adds a pixel's samples in the order
+    its threads take them, so two beauty renders agree to their last bits only); without it,
+    the headlight shading of the G-buffer pass, in the same launch. Memory grows with
+    ``V x W x H``: callers split long lists (:func:`views_per_launch`).
 
     >>> s = mi_npr.session.SceneSession.open("scenes_xml/scene1.xml", resolution=(32, 24))
     >>> cams = mi_npr.views.cameras(mi_npr.views.parse_views("orbit:3"), s.scene, s.sensor)

@@ -287,17 +287,22 @@ def test12_views_in_one_launch_with_the_beauty():
 
     s, sensors = _sensors("scenes_xml/scene1.xml", "orbit:2", (24, 16))
     integrator = s.scene.integrator()
-    # 1 spp: one sample into each pixel, one addition; with more, the film's atomic additions
-    # run in whatever order the threads take, so Mitsuba's own beauty is not bit for bit
-    # repeatable on a busy machine
-    many = render_views(s, sensors, integrator, spp=1, seed=5)
+    many = render_views(s, sensors, integrator, spp=2, seed=5)
+    lit = False
     for gb, sensor in zip(many, sensors, strict=True):
         one = render_gbuffer(
-            SceneSession(s.scene, sensor, s.source), beauty=integrator, spp=1, seed=5
+            SceneSession(s.scene, sensor, s.source), beauty=integrator, spp=2, seed=5
         )
         for name in one.names:
-            assert gb.numpy(name).tobytes() == one.numpy(name).tobytes(), name
+            a, b = gb.numpy(name), one.numpy(name)
+            if name in ("R", "G", "B"):  # Mitsuba's own render: its film adds samples in the
+                # order its threads take them, so two renders differ in the last bits
+                assert np.allclose(a, b, rtol=1e-5, atol=1e-6), name
+                lit = lit or bool(np.abs(a).max() > 0)
+            else:
+                assert a.tobytes() == b.tobytes(), name
         assert gb.metadata["mi_npr/beauty"] != "headlight"
+    assert lit  # a beauty, not black
 
 
 def test13_views_that_differ_by_more_than_their_pose_are_refused():
