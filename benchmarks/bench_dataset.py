@@ -19,7 +19,7 @@ Meshes (generated here, written as PLY): a bumpy latitude-longitude sphere of ~1
   loop (start-up and import excluded; printed separately); skipped with the reason when
   ``blender`` is not on PATH.
 - **2 workers against 1**: LocalClusters of 1 process with 1 Dr.Jit thread, of 1 with 2, and of
-  2 with 1 thread each, warmed up, on dataset jobs of over a second each (the beauty at 128 spp,
+  2 with 1 thread each, warmed up, on dataset jobs of over a second each (the beauty at 256 spp,
   one view a job).
 - **soak**: ``--soak N`` small jobs (16x16 views of a tetrahedron, lines) in a fresh process, in
   rounds of 100, the resident set size after each round: growth from the first round to the
@@ -267,7 +267,7 @@ def workers_speedup(mesh: Path, work: Path, n: int) -> dict[str, Any]:
     kw = {
         "width": RES,
         "height": RES,
-        "spp": 128,
+        "spp": 256,
         "beauty": True,
         "views_per_launch": 1,
         "drawings": ("lines",),
