@@ -301,6 +301,48 @@ def fit_shape_panel() -> Path:
     return _figure(panels, "fit_shape_scene3.png", (1, 3), (13, 3.6), 80)
 
 
+def dataset_panel() -> Path:
+    """A contact sheet of ``mi-npr dataset``: four meshes (rows: a bumpy sphere, a torus, a
+    12-sided ring, the foliage scene's tree), the line drawings of four ``sphere:4`` views at
+    256x256, then the depth and the normals of the first view."""
+    import tempfile
+
+    import trimesh
+
+    from mi_npr.dataset import make_dataset
+    from mi_npr.meshes import uv_sphere, write_ply
+
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp) / "meshes"
+        folder.mkdir()
+        V, F = uv_sphere(100, 51)
+        V = V * (1 + 0.1 * np.sin(6 * V[:, :1]) * np.sin(6 * V[:, 1:2]) * np.sin(6 * V[:, 2:]))
+        write_ply(folder / "a_bumpy.ply", V.astype(np.float32), F)
+        torus = trimesh.creation.torus(major_radius=1.0, minor_radius=0.35)
+        torus.export(folder / "b_torus.stl")
+        ring = trimesh.creation.annulus(r_min=0.55, r_max=1.0, height=0.5, sections=12)
+        ring.export(folder / "c_ring.stl")
+        tree = ROOT / "scenes_xml" / "meshes" / "foliage_tree_wood.ply"
+        (folder / "d_tree.ply").write_bytes(tree.read_bytes())
+        out = Path(tmp) / "out"
+        rows = make_dataset(
+            [folder], out, "sphere:4", drawings=("lines",), workers=0, progress=False
+        )
+        panels = []
+        for mesh in sorted({r["mesh"] for r in rows}):
+            views = [r for r in rows if r["mesh"] == mesh]
+            stem = Path(mesh).stem.split("_", 1)[1]
+            for r in views:
+                lines = plt.imread(out / r["files"]["lines.png"])
+                panels.append((lines, f"{stem} {r['view'][-3:]}"))
+            gb = mi_npr.io.read_exr(out / views[0]["files"]["exr"])
+            z = np.where(np.isfinite(gb["Z"]), gb["Z"], np.nan)
+            panels.append((z, f"{stem} 000: Z", {"cmap": "magma_r"}))
+            n = np.where(gb.object_id[..., None] > 0, gb.normals * 0.5 + 0.5, 1.0)
+            panels.append((np.clip(n, 0, 1), f"{stem} 000: N"))
+    return _figure(panels, "dataset_contact_sheet.png", (4, 6), (15, 10.4), 64)
+
+
 PANELS = {
     "overview": overview_panel,
     "gbuffer": gbuffer_panel,
@@ -312,6 +354,7 @@ PANELS = {
     "selection": selection_panel,
     "fit_camera": fit_camera_panel,
     "fit_shape": fit_shape_panel,
+    "dataset": dataset_panel,
 }
 
 if __name__ == "__main__":

@@ -85,6 +85,7 @@ from .params import (
     real_range,
 )
 from .pipeline import render_layers
+from .render import render_views, views_per_launch
 from .scene import scene_files
 from .session import RENDER_PARAMS, SceneSession
 from .viewpoint.outputs import view_warning
@@ -297,6 +298,26 @@ CLUSTER_PARAMS: tuple[Param, ...] = (
     ),
 )
 
+#: How a batch renders its views: many views of a scene in one launch, and whether with the
+#: scene's beauty (``mi-npr dataset``'s flags, with its own defaults).
+LAUNCH_PARAMS: tuple[Param, ...] = (
+    Param(
+        "views_per_launch",
+        int,
+        1,
+        "views of a scene whose G-buffers are rendered in one launch (0: as many as fit "
+        "2**19 rays); the outputs are those of one view at a time",
+        integer_range(0, 4096),
+    ),
+    Param(
+        "beauty",
+        bool,
+        True,
+        "render the beauty with the scene's integrator (false: the G-buffer pass's headlight "
+        "shading, no extra render)",
+    ),
+)
+
 #: A job's bound without progress (:data:`CLUSTER_PARAMS` ``job_timeout``): this many seconds
 #: per step (loading the scene and placing the cameras, rendering, writing) ...
 JOB_TIMEOUT = 300.0
@@ -352,6 +373,12 @@ class BatchSettings:
     #: the Dask event topic its jobs report their progress on (one per batch: two batches on
     #: one client never mix their jobs' progress)
     topic: str = PROGRESS_TOPIC
+    #: views of one scene whose G-buffers are rendered in one launch
+    #: (:func:`mi_npr.render.render_views`; 0: as many as :func:`~mi_npr.render.views_per_launch`
+    #: allows); the outputs are those of one view at a time
+    views_per_launch: int = 1
+    #: the scene's integrator renders ``R G B``; else the G-buffer pass's headlight shading
+    beauty: bool = True
 
     def flags(self) -> dict[str, Any]:
         """What makes two renders of a job equal (compared by ``resume``), JSON-ready."""
@@ -367,6 +394,7 @@ class BatchSettings:
             "variant": self.variant,
             "line_color": list(self.line_color) if self.line_color else None,
             "paper": list(self.paper) if self.paper else None,
+            **({} if self.beauty else {"beauty": False}),  # earlier runs' keys stay valid
         }
 
 
@@ -385,6 +413,9 @@ def job_key(settings: BatchSettings, job: Job) -> str:
 
 
 _JOB_LOCK = threading.Lock()  # one job at a time per process (output sets, the render lock)
+#: The G-buffers of this worker's last launch of many views, by view id, each taken by its job
+#: (one launch kept: memory stays bounded); ``key`` names the scene, settings and launch.
+_LAUNCH: dict[str, Any] = {"key": None, "views": {}}
 _SCENES: OrderedDict[tuple, tuple[Any, dict[str, Any]]] = OrderedDict()
 _THREADS: list[int | None] = [None]
 
@@ -493,13 +524,13 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
             _configure(settings)
             session, cams = _scene(settings, job)
             camera = cams[job.view]
-            if camera is None:
-                sensor = session.sensor
-            else:  # a missing up or fov is the sensor's; errors name the file and camera
-                given = resolve(camera, session.sensor, settings.views.where(job.view))
-                sensor = sensor_for(given, session.sensor)
             row["camera"] = (camera or camera_of(session.sensor)).to_dict()
-            _progress(settings, _samples(sensor, session.spp))
+            _progress(settings, _samples(session.sensor, session.spp))
+            launched = None
+            if settings.views_per_launch != 1 or not settings.beauty:
+                sensor, launched = _launched(settings, job, session, cams)
+            else:
+                sensor = _sensor(settings, session, job.view, camera)
             result = render_layers(
                 session.scene,
                 settings.drawings,
@@ -507,6 +538,7 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
                 sensor=sensor,
                 spp=session.spp,
                 seed=settings.seed,
+                gbuffer=launched,
             )
             _progress(settings)
             outdir = Path(settings.outdir) / ("" if settings.flat else job.stem)
@@ -524,6 +556,43 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
     row["seconds"] = round(time.perf_counter() - t0, 6)
     row["finished"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     return row
+
+
+def _launched(
+    settings: BatchSettings, job: Job, session: Any, cams: dict[str, Any]
+) -> tuple[Any, Any]:
+    """The sensor and the G-buffer of ``job``'s view from the launch of its group of views (the
+    view spec's views in order, :attr:`BatchSettings.views_per_launch` at a time), rendered
+    here unless this worker's last launch holds it; without :attr:`BatchSettings.beauty`, no
+    beauty."""
+    if _LAUNCH.get("cams") is not cams:  # the views' order, once per scene (not once a job)
+        _LAUNCH["cams"], _LAUNCH["order"] = cams, {v: i for i, v in enumerate(cams)}
+    w, h = (int(v) for v in session.sensor.film().crop_size())
+    k = settings.views_per_launch or views_per_launch(w, h)
+    first = _LAUNCH["order"][job.view] // k * k
+    key = (job.scene, job.scene_hash, id(session), settings, first)
+    if _LAUNCH["key"] != key or job.view not in _LAUNCH["views"]:
+        _LAUNCH["key"], _LAUNCH["views"] = None, {}  # the old launch's memory goes first
+        group = list(itertools.islice(cams, first, first + k))
+        sensors = [_sensor(settings, session, v, cams[v]) for v in group]
+        integ = session.scene.integrator()
+        beauty = None
+        if settings.beauty:
+            beauty = integ.beauty if hasattr(integ, "npr_gbuffer") else integ
+        gbs = render_views(session, sensors, beauty, session.spp, settings.seed)
+        _LAUNCH["key"], _LAUNCH["views"] = (
+            key,
+            dict(zip(group, zip(sensors, gbs, strict=True), strict=True)),
+        )
+    return _LAUNCH["views"].pop(job.view)
+
+
+def _sensor(settings: BatchSettings, session: Any, view: str, camera: Any) -> Any:
+    """The sensor of ``view``: the scene's, or one at its camera (a missing up or fov is the
+    scene sensor's; errors name the file and camera)."""
+    if camera is None:
+        return session.sensor
+    return sensor_for(resolve(camera, session.sensor, settings.views.where(view)), session.sensor)
 
 
 def inside(outdir: Path, name: Any) -> Path | None:
@@ -632,6 +701,8 @@ def run(
     flat: bool = False,
     dashboard: str = DASHBOARD,
     on_dashboard: Callable[[str], None] | None = None,
+    views_per_launch: int = 1,
+    beauty: bool = True,
 ) -> list[dict[str, Any]]:
     """Render every scene of ``scenes`` from every view of ``views`` (module docstring: a
     ``--views`` spec, or a list of :class:`~mi_npr.camera.Camera`, each named by its ``id``)
@@ -646,7 +717,7 @@ def run(
     never more than jobs, and more than cores only when asked, with a warning); ``workers=0``
     renders in this process, without Dask. The LocalCluster's dashboard listens on
     ``dashboard`` (``host:port``; default this machine only, a free port) and its link is
-    given to ``on_dashboard``.
+    given to ``on_dashboard``. ``views_per_launch`` and ``beauty``: :data:`LAUNCH_PARAMS`.
 
     On Dask, a job that goes without progress for longer than its bound (``job_timeout``
     seconds per step, default :data:`JOB_TIMEOUT` plus its samples over
@@ -662,7 +733,7 @@ def run(
     [('orbit_000', 'done'), ('orbit_001', 'done')]
     """
 
-    table = {p.name: p for p in (*RENDER_PARAMS, *CLUSTER_PARAMS)}
+    table = {p.name: p for p in (*RENDER_PARAMS, *CLUSTER_PARAMS, *LAUNCH_PARAMS)}
 
     def arg(name: str, value: Any) -> Any:
         return None if value is None else check_arg("batch", table[name], value)
@@ -674,6 +745,7 @@ def run(
         arg("retries", retries),
     )
     job_timeout = arg("job_timeout", job_timeout)
+    views_per_launch, beauty = arg("views_per_launch", views_per_launch), arg("beauty", beauty)
     jobs, spec = plan(scenes, views, defines)
     outdir = check_writable_dir(out, create=True)
     settings = BatchSettings(
@@ -692,6 +764,8 @@ def run(
         paper=tuple(float(v) for v in paper) if paper else None,
         flat=flat,
         job_timeout=job_timeout,
+        views_per_launch=views_per_launch,
+        beauty=beauty,
     )
     if flat and len({j.scene for j in jobs}) > 1:
         raise ParameterError("flat outputs are for one scene (its views' files would collide)")

@@ -17,6 +17,13 @@ radiance 0.3 and one directional key light of irradiance 2.5 falling along
 Mitsuba's ``direct`` integrator; a pinhole camera of 40 degrees horizontal field of view with a
 box filter (each pixel's depth, normal and ids are those of its own samples).
 
+**Beauty.** ``R G B`` (and ``<view>.png``) are the studio's ``direct`` render only when
+``beauty`` is asked for; by default they are the G-buffer pass's headlight shading
+(:func:`mi_npr.render.render_gbuffer` without an integrator), which costs no render of its own.
+The views of a mesh are rendered ``views_per_launch`` at a time in one launch
+(:func:`mi_npr.render.render_views`): the files are those of one view at a time, bit for bit
+(a beauty render to its last bits: Mitsuba's film adds samples in its threads' order).
+
 **Views** (:mod:`mi_npr.views`): ``sphere:N`` (the upper half of the viewing sphere), ``orbit:N``
 (about +y, starting on +z, 20 degrees above the equator), ``random:N`` (uniform on the whole
 sphere, seeded by ``seed``), all at the distance from which the unit sphere fits the image with
@@ -25,14 +32,19 @@ scene camera's distance, which is that same distance.
 
 **Layout of OUT.** ``scenes/<stem>.xml`` one scene per good mesh, ``meshes/<stem>.ply`` the
 converted meshes, ``<stem>/<view>.exr`` (depth ``Z``, normals ``N``, ``object_id``,
-``prim_id``, the beauty), ``<stem>/<view>.png`` (the beauty), ``<stem>/<view>_lines.png`` /
+``prim_id``, ``R G B``), ``<stem>/<view>.png`` (``R G B``), ``<stem>/<view>_lines.png`` /
 ``_lines.svg`` (the line drawing), ``<stem>/<view>_strokes.svg`` / ``.json`` / ``.png`` (the
 strokes), ``manifest.jsonl`` (the batch's log), and :data:`INDEX` ``dataset.jsonl``, the
 dataset's manifest, rewritten whole by every run: one row per view of every good mesh
 (``mesh``, ``mesh_hash``, ``normalisation``, ``triangles``, ``scene``, ``view``, ``camera``,
-``files`` by kind, ``status``, ``error``) and one per bad mesh (``view`` null, ``status``
-``skipped``, ``error`` the reason), and ``dataset.parquet`` with the same rows when ``pyarrow``
-is installed (nested fields as JSON text).
+``files`` by kind, ``status``, ``error``, ``warning``) and one per bad mesh (``view`` null,
+``status`` ``skipped``, ``error`` the reason), and ``dataset.parquet`` with the same rows when
+``pyarrow`` is installed (nested fields as JSON text).
+
+**Non-manifold meshes** (an edge shared by more than two triangles, vertices at one position
+counted as one, :func:`non_manifold_edges`) render as well as any other: ray casting and the
+line chain need no manifold. So by default (``non_manifold="warn"``) such a mesh is rendered and
+every row of it has ``warning`` naming the count; ``"skip"`` makes it a bad mesh instead.
 
 Ambiguities resolved: two meshes of one file stem are refused before anything runs (their
 outputs would share a folder); a mesh named like a folder of OUT (:data:`RESERVED`) is a bad
@@ -48,7 +60,7 @@ import json
 import math
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -60,8 +72,22 @@ from .camera import fit_distance
 from .errors import InputError, ParameterError, one_line
 from .io._atomic import atomic_output, check_writable_dir
 from .meshes import write_ply
-from .params import MAX_RES, MAX_SPP, Param, integer_range, seed_rule
+from .params import (
+    MAX_RES,
+    MAX_SPP,
+    Param,
+    check_arg,
+    entry,
+    integer_range,
+    one_of,
+    seed_rule,
+)
 from .views import FRAME_MARGIN
+
+#: What a non-manifold mesh (an edge shared by more than two triangles) gets: ``warn`` renders
+#: it and says so in its rows, ``skip`` reports it as a bad mesh.
+NON_MANIFOLD = ("warn", "skip")
+
 
 #: The film, samples and seed of a dataset (``mi-npr dataset``'s flags).
 DATASET_PARAMS: tuple[Param, ...] = (
@@ -69,6 +95,21 @@ DATASET_PARAMS: tuple[Param, ...] = (
     Param("height", int, 256, "image height in pixels", integer_range(1, MAX_RES)),
     Param("spp", int, 16, "samples per pixel of the beauty", integer_range(1, MAX_SPP)),
     Param("seed", int, 0, "seed of the random:N views and of the samplers", seed_rule),
+    Param(
+        "non_manifold",
+        str,
+        "warn",
+        "a mesh with an edge shared by more than two triangles: warn (rendered, its manifest "
+        "rows say so) or skip (a bad mesh)",
+        one_of(NON_MANIFOLD),
+    ),
+    replace(batch.LAUNCH_PARAMS[0], default=0),
+    replace(
+        batch.LAUNCH_PARAMS[1],
+        default=False,
+        doc="render the studio's beauty (direct illumination, spp samples); false: the "
+        "G-buffer pass's headlight shading",
+    ),
 )
 #: Formats Mitsuba loads itself.
 NATIVE = (".obj", ".ply")
@@ -132,6 +173,7 @@ class Mesh:
     radius: float = 0.0
     triangles: int = 0
     error: str | None = None
+    warning: str | None = None
 
 
 def find_meshes(
@@ -206,10 +248,30 @@ def _welded(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(m.vertices), np.asarray(m.faces)
 
 
-def check_mesh(path: str, out: Path) -> Mesh:
+def non_manifold_edges(V: np.ndarray, F: np.ndarray) -> int:
+    """How many edges of the triangles ``F`` are shared by more than two of them, vertices at
+    one position counted as one (an STL repeats every corner per triangle); an edge is an
+    unordered pair of distinct positions, so a degenerate triangle adds only its real edges.
+
+    >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], float)
+    >>> non_manifold_edges(V, np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]]))  # a fin on 0-1
+    1
+    """
+    _, weld = np.unique(np.asarray(V), axis=0, return_inverse=True)
+    f = weld.reshape(-1)[np.asarray(F, np.int64)]
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    e = np.sort(e[e[:, 0] != e[:, 1]], axis=1)
+    if len(e) == 0:
+        return 0
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return int(np.count_nonzero(counts > 2))
+
+
+def check_mesh(path: str, out: Path, non_manifold: str = "warn") -> Mesh:
     """``path`` checked (unreadable, empty, 0 faces, non-finite or out-of-range vertices, no
-    extent, refused by Mitsuba) and, for a converted format, written as PLY into
-    ``out/meshes``; never raises for a bad mesh: its :class:`Mesh` has the reason."""
+    extent, refused by Mitsuba, non-manifold with ``non_manifold="skip"``) and, for a
+    converted format, written as PLY into ``out/meshes``; never raises for a bad mesh: its
+    :class:`Mesh` has the reason (a non-manifold mesh with ``"warn"``: its ``warning``)."""
     stem = Path(path).stem
     ext = Path(path).suffix.lower()
     if ext not in NATIVE + CONVERTED:
@@ -242,6 +304,13 @@ def check_mesh(path: str, out: Path) -> Mesh:
         why = "no extent: every vertex is at one point"
     if why is not None:
         return Mesh(path, stem, digest, error=f"{path}: {why}")
+    warning = None
+    shared = non_manifold_edges(V, F)
+    if shared:
+        s = "s" if shared > 1 else ""
+        warning = f"{path}: non-manifold: {shared} edge{s} shared by more than two triangles"
+        if non_manifold == "skip":
+            return Mesh(path, stem, digest, error=warning)
     source = path
     if ext in CONVERTED:
         source = str(out / "meshes" / f"{stem}.ply")
@@ -260,7 +329,8 @@ def check_mesh(path: str, out: Path) -> Mesh:
     radius = float(np.linalg.norm(hi - lo) / 2)
     if not (math.isfinite(radius) and radius > 0):
         return Mesh(path, stem, digest, error=f"{path}: no extent")
-    return Mesh(path, stem, digest, source, centre, radius, int(shape.face_count()))  # type: ignore[arg-type]
+    triangles = int(shape.face_count())
+    return Mesh(path, stem, digest, source, centre, radius, triangles, warning=warning)  # type: ignore[arg-type]
 
 
 def _num(v: float) -> str:
@@ -333,13 +403,20 @@ def make_dataset(
     spp: int | None = None,
     workers: int | None = None,
     resume: bool = False,
+    views_per_launch: int = 0,
+    beauty: bool = False,
+    non_manifold: str = "warn",
     **options: Any,
 ) -> list[dict[str, Any]]:
     """Render every good mesh of ``meshes`` (:func:`find_meshes`) in the studio from every view
     of ``views`` into ``out`` (module docstring); the rows of :data:`INDEX`, bad meshes first.
 
     ``seed`` seeds the ``random:N`` views (``random:N:SEED`` given in full wins) and the
-    samplers; ``spp``: the studio's 16 when ``None``; ``options`` go to
+    samplers; ``spp``: the studio's 16 when ``None`` (the beauty's; without ``beauty`` the
+    G-buffer pass's headlight shading fills ``R G B``); ``views_per_launch`` views of a mesh
+    share one launch (0: :func:`mi_npr.render.views_per_launch`); ``non_manifold`` (one of
+    :data:`NON_MANIFOLD`): what a mesh with an edge shared by more than two triangles gets;
+    ``options`` go to
     :func:`mi_npr.batch.run` (``params``, ``threads_per_worker``, ``scheduler``, ``client``,
     ``retries``, ``job_timeout``, ``progress``, ``line_color``, ``paper``).
 
@@ -366,7 +443,8 @@ def make_dataset(
         if stem in stems:
             raise ParameterError(f"{stems[stem]} and {p} would both write outputs named {stem!r}")
         stems[stem] = p
-    checked = [check_mesh(p, outdir) for p in paths]
+    non_manifold = check_arg("dataset", entry(DATASET_PARAMS, "non_manifold"), non_manifold)
+    checked = [check_mesh(p, outdir, non_manifold) for p in paths]
     good = [m for m in checked if m.error is None]
     index: list[dict[str, Any]] = [
         {
@@ -392,6 +470,8 @@ def make_dataset(
             seed=seed,
             workers=workers,
             resume=resume,
+            views_per_launch=views_per_launch,
+            beauty=beauty,
             **options,
         )
         for r in rows:
@@ -408,6 +488,7 @@ def make_dataset(
                     "files": _files(r),
                     "status": r.get("status"),
                     "error": r.get("error"),
+                    "warning": m.warning,
                 }
             )
     write_index(outdir, index)
@@ -424,7 +505,7 @@ def write_index(outdir: Path, rows: list[dict[str, Any]]) -> None:
         import pyarrow.parquet as pq
     except ImportError:
         return
-    columns = ("mesh", "mesh_hash", "triangles", "scene", "view", "status", "error")
+    columns = ("mesh", "mesh_hash", "triangles", "scene", "view", "status", "error", "warning")
     nested = ("normalisation", "camera", "files")
     table = pa.table(
         {

@@ -128,6 +128,7 @@ def render_layers(
     progress: bool = False,
     cryptomatte: bool = False,
     vector: bool = True,
+    gbuffer: GBuffer | None = None,
     **more: Any,
 ) -> LayeredRender:
     """Render ``scene`` with its own integrator as the beauty and the ``drawings`` (names of
@@ -141,7 +142,8 @@ def render_layers(
     shows a bar on a long beauty.
     ``cryptomatte`` is the same as naming the ``cryptomatte`` drawing; ``vector`` traces
     the drawings as vector paths for the SVG writers (:attr:`LayeredRender.paths`,
-    :attr:`LayeredRender.strokes`).
+    :attr:`LayeredRender.strokes`). ``gbuffer``: the G-buffer of this sensor already rendered
+    (many views in one launch, :func:`mi_npr.render.render_views`), drawn on as it is.
 
     >>> r = render_layers("scenes_xml/scene1.xml", ["contours"], {"only": "sphere*"},
     ...                   resolution=(64, 48), spp=4)
@@ -162,7 +164,11 @@ def render_layers(
         for name in on:
             DRAWINGS[name].preflight(session)
     beauty = integ.beauty if hasattr(integ, "npr_gbuffer") else integ
-    gb = render_gbuffer(session, beauty=beauty, spp=session.spp, seed=seed, progress=progress)
+    if gbuffer is None:
+        gbuffer = render_gbuffer(
+            session, beauty=beauty, spp=session.spp, seed=seed, progress=progress
+        )
+    gb = gbuffer
     if session.source is not None:
         gb = gb.with_metadata(**{"mi_npr/scene": session.source})
     out = LayeredRender(gb, drawings=tuple(on))

@@ -13,7 +13,9 @@ jitter. :func:`film_grid` gives every pixel centre, or every pixel corner (``(W 
 positions), or the centres of a list of pixels. :func:`pinhole_rays` builds the rays of many
 pinhole cameras at once (``V x W x H`` lanes), each oriented like Mitsuba's ``lookat`` (camera
 +z forward, +y up, +x left), so a view's rays equal those of a ``perspective`` sensor at that
-pose.
+pose. :func:`posed_rays` gives the rays of many poses of one ``perspective`` sensor bit for bit
+(its rays in camera space, moved by each lane's ``to_world`` with the sensor's own operations),
+so a G-buffer of many views in one launch equals the G-buffers of the views one by one.
 
 **Hits.** :func:`cast` intersects rays once and returns a :class:`Hits`: the object id (stable,
 from :class:`mi_npr.scene.ObjectTable`), the primitive index, the material id, the distance ``t``
@@ -88,8 +90,46 @@ def pixel_rays(sensor: mi.Sensor, x: Any, y: Any) -> mi.Ray3f:
 
 def camera_frame(sensor: mi.Sensor) -> tuple[mi.Point3f, mi.Vector3f]:
     """Camera origin and unit view axis (+z of the camera frame) in world space."""
-    T = sensor.world_transform()
+    return transform_frame(sensor.world_transform())
+
+
+def transform_frame(to_world: mi.Transform4f) -> tuple[mi.Point3f, mi.Vector3f]:
+    """Origin and unit +z axis of a camera-to-world transform (one per lane where ``to_world``
+    holds many)."""
+    T = to_world
     return T @ mi.Point3f(0.0, 0.0, 0.0), dr.normalize(T @ mi.Vector3f(0.0, 0.0, 1.0))
+
+
+def transforms(matrices: np.ndarray, index: Any = None) -> mi.Transform4f:
+    """``(V, 4, 4)`` camera-to-world matrices as one ``Transform4f`` of V lanes, or of the lanes
+    of ``index`` (``UInt32``: lane ``i`` holds matrix ``index[i]``)."""
+    m = np.ascontiguousarray(matrices, np.float32).reshape(-1, 4, 4)
+    entries = []
+    for i in range(4):
+        for j in range(4):
+            column = mi.Float(np.ascontiguousarray(m[:, i, j]))
+            entries.append(column if index is None else dr.gather(mi.Float, column, index))
+    return mi.Transform4f(mi.Matrix4f(*entries))
+
+
+def posed_rays(reference: mi.Sensor, to_world: mi.Transform4f, x: Any, y: Any) -> mi.Ray3f:
+    """The rays of :func:`pixel_rays` through film positions ``(x, y)`` of a ``perspective``
+    sensor like ``reference`` (whose ``to_world`` is the identity) standing at ``to_world``
+    (one transform per lane): Mitsuba's ``perspective`` ``sample_ray`` after its camera-space
+    part, ``d = T d_local``, ``o = T.translation() + d near_clip / d_local.z``, bit for bit.
+
+    The two stages are separate kernels: fused into one, LLVM may contract ``o``'s multiply and
+    add into a fused multiply-add, one rounding fewer than the sensor's own rays."""
+    local = pixel_rays(reference, x, y)
+    d = to_world @ local.d
+    near_t = reference.near_clip() * dr.rcp(local.d.z)
+    shift = to_world.translation()
+    dr.eval(d, near_t, shift)
+    ray = mi.Ray3f(local)
+    ray.o = mi.Point3f(shift + d * near_t)
+    ray.d = d
+    dr.eval(ray.o)
+    return ray
 
 
 def _vec3(a: np.ndarray) -> mi.Vector3f:
@@ -146,9 +186,10 @@ class Hits:
         """Ids of an ``id_mode`` (:class:`~mi_npr.contours.idmode.IdMap`)."""
         return id_map.lookup(self.si)
 
-    def depth(self, sensor: mi.Sensor) -> mi.Float:
-        """Camera-space depth along the sensor's view axis (+inf on a miss)."""
-        o, f = camera_frame(sensor)
+    def depth(self, sensor: mi.Sensor, frame: tuple[Any, Any] | None = None) -> mi.Float:
+        """Camera-space depth along the sensor's view axis (+inf on a miss); ``frame``: each
+        lane's own camera origin and axis instead (rays of many views)."""
+        o, f = camera_frame(sensor) if frame is None else frame
         return dr.select(self.valid, dr.dot(self.si.p - o, f), dr.inf)
 
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 import os
 import sys
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import drjit as dr
@@ -41,13 +41,25 @@ from tqdm import tqdm
 from . import layers as L
 from ._version import __version__
 from .camera import projection_of
+from .errors import ParameterError
 from .gbuffer import GBuffer
 from .memory import check_render, render_passes
-from .raycast import SEAM_OFFSET, Hits, cast, film_grid, film_size, pixel_rays, require_jit
+from .raycast import (
+    SEAM_OFFSET,
+    Hits,
+    cast,
+    film_grid,
+    film_size,
+    pixel_rays,
+    posed_rays,
+    require_jit,
+    transform_frame,
+    transforms,
+)
 from .scene import ObjectTable, merge_defines, sensor_of
 from .session import SceneSession, check_spp
 
-__all__ = ["pixel_rays", "render", "render_gbuffer"]
+__all__ = ["pixel_rays", "render", "render_gbuffer", "render_views"]
 
 
 def _headlight(si: mi.SurfaceInteraction3f, ray: mi.Ray3f, valid: Any) -> Any:
@@ -80,11 +92,13 @@ def channels(
     ray: mi.Ray3f,
     table: ObjectTable,
     shade: bool,
+    frame: tuple[Any, Any] | None = None,
 ) -> dict[str, Any]:
-    """G-buffer channels for ``ray`` (any width): ``{layer name: Float/UInt32}``."""
+    """G-buffer channels for ``ray`` (any width): ``{layer name: Float/UInt32}``; ``frame``:
+    each lane's camera origin and axis for ``Z`` where the rays are of many views."""
     hits = cast(scene, ray, table, detail="full")
     valid, si = hits.valid, hits.si
-    out: dict[str, Any] = {L.Z: hits.depth(sensor)}
+    out: dict[str, Any] = {L.Z: hits.depth(sensor, frame)}
     for i, name in enumerate(L.P):
         out[name] = dr.select(valid, si.p[i], 0.0)
     n = _bsdf_normals(hits, table, si.sh_frame.n)
@@ -110,27 +124,36 @@ def grid_channels(
     x, y = film_grid(W, H)
     out = channels(scene, sensor, pixel_rays(sensor, x / n, y / n), table, shade)
     dr.eval(*out.values())
-    return _close_seams(scene, sensor, table, shade, out, W, H, n)
+
+    def again(x: Any, y: Any, view: Any) -> dict[str, Any]:
+        return channels(scene, sensor, pixel_rays(sensor, x, y), table, shade)
+
+    return _close_seams(again, out, W, H, n)
+
+
+#: ``(x, y, view) -> channels``: the G-buffer channels of the rays through film positions
+#: ``(x, y)`` (pixels) of the views ``view`` (lanes of ``UInt32``); how seams are cast again.
+Recast = Callable[[Any, Any, Any], dict[str, Any]]
 
 
 def _close_seams(
-    scene: mi.Scene,
-    sensor: mi.Sensor,
-    table: ObjectTable,
-    shade: bool,
-    out: dict[str, Any],
-    W: int,
-    H: int,
-    n: int,
+    recast: Recast, out: dict[str, Any], W: int, H: int, n: int, views: int = 1
 ) -> dict[str, Any]:
+    """The seam rule (module docstring) on ``views`` grids of ``W x H`` stacked lane-wise
+    (view ``v``'s cell ``(x, y)`` is lane ``v W H + y W + x``); a cell's neighbours are those of
+    its own view."""
     ids, z = out[L.OBJECT_ID], out[L.Z]
-    i = dr.arange(mi.UInt32, W * H)
-    px, py = mi.Int32(i % W), mi.Int32(i // W)
+    i = dr.arange(mi.UInt32, views * W * H)
+    view = i // (W * H) if views > 1 else mi.UInt32(0)
+    local = i - view * (W * H) if views > 1 else i
+    px, py = mi.Int32(local % W), mi.Int32(local // W)
     inside, nid, nz = [], [], []
     for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
         qx, qy = px + dx, py + dy
         ok = (qx >= 0) & (qx < W) & (qy >= 0) & (qy < H)
         q = mi.UInt32(dr.clip(qy, 0, H - 1) * W + dr.clip(qx, 0, W - 1))
+        if views > 1:
+            q += view * (W * H)
         inside.append(ok)
         nid.append(dr.gather(mi.UInt32, ids, q))
         nz.append(dr.gather(mi.Float, z, q))
@@ -157,7 +180,8 @@ def _close_seams(
     offsets = ((e, e), (-e, e), (e, -e), (-e, -e))
     cx = dr.concat([sx + 0.5 + ox for ox, _ in offsets])
     cy = dr.concat([sy + 0.5 + oy for _, oy in offsets])
-    again = channels(scene, sensor, pixel_rays(sensor, cx / n, cy / n), table, shade)
+    sv = dr.gather(mi.UInt32, view, idx) if views > 1 else mi.UInt32(0)
+    again = recast(cx / n, cy / n, dr.concat([sv] * len(offsets)) if views > 1 else sv)
     chosen, found = mi.UInt32(0), mi.Bool(False)
     for k in range(len(offsets)):
         j = dr.arange(mi.UInt32, m) + k * m
@@ -318,6 +342,17 @@ def render_gbuffer(
             layers.update(
                 beauty_layers(session.scene, sensor, beauty, spp or 0, seed, passes, progress)
             )
+    return _gbuffer(layers, session, sensor, beauty, spp)
+
+
+def _gbuffer(
+    layers: dict[str, Any],
+    session: SceneSession,
+    sensor: mi.Sensor,
+    beauty: mi.Integrator | None,
+    spp: int | None,
+) -> GBuffer:
+    """The layers of one view in the G-buffer's order, with its camera and metadata."""
     ordered = {k: layers[k] for k in L.GBUFFER}
     ordered.update({k: v for k, v in layers.items() if k not in ordered})  # the scene's AOVs
     spp_used = spp if spp is not None else sensor.sampler().sample_count()
@@ -329,7 +364,141 @@ def render_gbuffer(
     }
     if session.source:
         meta["mi_npr/scene"] = session.source
-    return GBuffer(ordered, table.names, projection_of(sensor), meta)
+    return GBuffer(ordered, session.objects.names, projection_of(sensor), meta)
+
+
+#: Rays per launch that :func:`views_per_launch` allows: a bound on the memory of one launch
+#: of :func:`render_views` (its channels, ~50 bytes a ray, and the hits while they are found).
+LAUNCH_RAYS = 1 << 19
+
+
+def views_per_launch(width: int, height: int) -> int:
+    """How many views of ``width x height`` pixels one launch of :func:`render_views` takes
+    within :data:`LAUNCH_RAYS` rays (at least one)."""
+    return max(1, LAUNCH_RAYS // max(1, width * height))
+
+
+def _pose(sensor: mi.Sensor) -> tuple:
+    """What a sensor's rays depend on besides its ``to_world``."""
+    p = projection_of(sensor)
+    params = mi.traverse(sensor)
+    shift = tuple(
+        float(np.asarray(params[k]).ravel()[0]) for k in sorted(params.keys()) if "principal" in k
+    )
+    film = sensor.film()
+    crop = (tuple(film.crop_size()), tuple(film.crop_offset()), tuple(film.size()))
+    time = (float(sensor.shutter_open()), float(sensor.shutter_open_time()))
+    return (p.kind, p.fov, p.near_clip, p.far_clip, p.resolution, shift, crop, time)
+
+
+def _reference(sensors: Sequence[mi.Sensor]) -> mi.Sensor:
+    """The ``perspective`` sensor of ``sensors``' film, fov and clip planes at the identity pose
+    (:func:`mi_npr.raycast.posed_rays`); a :class:`ParameterError` unless every sensor is such
+    a ``perspective`` sensor, uncropped, without a principal point shift."""
+    poses = {_pose(s) for s in sensors}
+    kind, fov, near, far, (w, h), shift, (crop, offset, size), time = next(iter(poses))
+    if len(poses) > 1 or kind != "perspective" or any(shift) or offset != (0, 0) or crop != size:
+        raise ParameterError(
+            "render_views: the sensors must be perspective sensors of one film size, field of "
+            "view and clip planes, without a crop window or a principal point shift"
+        )
+    return mi.load_dict(
+        {
+            "type": "perspective",
+            "fov": fov,
+            "fov_axis": "x",
+            "near_clip": near,
+            "far_clip": far,
+            "shutter_open": time[0],
+            "shutter_close": time[0] + time[1],
+            "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": {"type": "box"}},
+        }
+    )
+
+
+def render_views(
+    scene: mi.Scene | SceneSession,
+    sensors: Sequence[mi.Sensor],
+    beauty: mi.Integrator | None = None,
+    spp: int | None = None,
+    seed: int = 0,
+) -> list[GBuffer]:
+    """The G-buffers of many views of one scene, their channels in one launch: the pixel-centre
+    rays of every view (``V x W x H`` lanes, view ``v``'s pixel ``(x, y)`` in lane
+    ``v W H + y W + x``) cast together, their seams closed together (each pixel among its own
+    view's neighbours), then cut into one :class:`GBuffer` per view.
+
+    ``sensors``: ``perspective`` sensors that differ by their ``to_world`` only (a batch's
+    cameras, :func:`mi_npr.camera.sensor_for`); view ``k`` equals
+    ``render_gbuffer(scene, sensors[k], beauty, spp, seed)`` layer for layer, bit for bit (the
+    rays are the sensor's own, :func:`mi_npr.raycast.posed_rays`). ``beauty`` (an integrator)
+    renders each view's ``R G B`` on its own (Mitsuba's film adds a pixel's samples in the order
+    its threads take them, so two beauty renders agree to their last bits only); without it,
+    the headlight shading of the G-buffer pass, in the same launch. Memory grows with
+    ``V x W x H``: callers split long lists (:func:`views_per_launch`).
+
+    >>> s = mi_npr.session.SceneSession.open("scenes_xml/scene1.xml", resolution=(32, 24))
+    >>> cams = mi_npr.views.cameras(mi_npr.views.parse_views("orbit:3"), s.scene, s.sensor)
+    >>> gbs = render_views(s, [mi_npr.camera.sensor_for(c, s.sensor) for _, c in cams])
+    >>> [gb["Z"].shape for gb in gbs]
+    [(24, 32), (24, 32), (24, 32)]
+    """
+    spp = check_spp(spp)
+    sensors = list(sensors)
+    if not sensors:
+        return []
+    session = scene if isinstance(scene, SceneSession) else None
+    if session is None:
+        require_jit()
+        session = SceneSession(scene, sensors[0], None, spp)
+    passes = check_render(sensors[0], beauty, spp, seed)
+    table, shade = session.objects, beauty is None
+    if len(sensors) == 1:  # any sensor: the pass of one view
+        with session.step("rendering"):
+            layers = gbuffer_layers(session.scene, sensors[0], table, shade)
+            if beauty is not None:
+                layers.update(
+                    beauty_layers(session.scene, sensors[0], beauty, spp or 0, seed, passes)
+                )
+        return [_gbuffer(layers, session, sensors[0], beauty, spp)]
+    reference = _reference(sensors)
+    w, h = film_size(reference)
+    npix, V = w * h, len(sensors)
+    M = np.stack(
+        [np.asarray(s.world_transform().matrix, np.float32).reshape(4, 4) for s in sensors]
+    )
+    origin, forward = transform_frame(transforms(M))
+    dr.eval(origin, forward)
+
+    def recast(x: Any, y: Any, view: Any) -> dict[str, Any]:
+        rays = posed_rays(reference, transforms(M, view), x, y)
+        frame = (dr.gather(mi.Point3f, origin, view), dr.gather(mi.Vector3f, forward, view))
+        return channels(session.scene, reference, rays, table, shade, frame)
+
+    with session.step("rendering"):
+        i = dr.arange(mi.UInt32, V * npix)
+        view = i // npix
+        pix = i - view * npix
+        out = recast(mi.Float(pix % w) + 0.5, mi.Float(pix // w) + 0.5, view)
+        dr.eval(*out.values())
+        out = _close_seams(recast, out, w, h, 1, V)
+        j = dr.arange(mi.UInt32, npix)
+        TF, TU = mi.TensorXf, mi.TensorXu
+        cut = [
+            {
+                k: (TU if isinstance(v, mi.UInt32) else TF)(
+                    dr.gather(type(v), v, j + k_view * npix), shape=(h, w)
+                )
+                for k, v in out.items()
+            }
+            for k_view in range(V)
+        ]
+        dr.eval(cut)  # one kernel cuts every view
+        del out
+        for layers, sensor in zip(cut, sensors, strict=True):
+            if beauty is not None:
+                layers.update(beauty_layers(session.scene, sensor, beauty, spp or 0, seed, passes))
+    return [_gbuffer(c, session, s, beauty, spp) for c, s in zip(cut, sensors, strict=True)]
 
 
 def render(

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 
 import numpy as np
 import pytest
@@ -239,3 +240,181 @@ def test10_out_inside_the_folder_searched(tmp_path):
     # OUT/meshes/cube.ply is no input: no clash of stems, the same one mesh again
     again = D.make_dataset([tmp_path], tmp_path / "out", "orbit:1", drawings=("lines",), **kw)
     assert [r["mesh"] for r in again] == [r["mesh"] for r in first] == [str(tmp_path / "cube.stl")]
+
+
+# -- many views in one launch -------------------------------------------------------------
+
+
+def _sensors(scene_path, spec, res):
+    from mi_npr.camera import sensor_for
+    from mi_npr.session import SceneSession
+
+    s = SceneSession.open(scene_path, resolution=res)
+    return s, [
+        sensor_for(c, s.sensor) for _, c in V.cameras(V.parse_views(spec), s.scene, s.sensor)
+    ]
+
+
+@pytest.mark.parametrize(
+    ("scene", "spec", "res"),
+    [
+        ("scenes_xml/scene1.xml", "orbit:3", (40, 30)),
+        ("scenes_xml/scene2.xml", "sphere:4", (33, 17)),
+    ],
+)
+def test11_views_in_one_launch_equal_the_views_one_by_one(scene, spec, res):
+    """Every layer of every view of :func:`render_views` is bit for bit the layer of the pass
+    of that view alone (the reference: ``render_gbuffer`` on the view's own sensor)."""
+    from mi_npr.render import render_gbuffer, render_views
+    from mi_npr.session import SceneSession
+
+    s, sensors = _sensors(scene, spec, res)
+    many = render_views(s, sensors)
+    assert len(many) == len(sensors)
+    for gb, sensor in zip(many, sensors, strict=True):
+        one = render_gbuffer(SceneSession(s.scene, sensor, s.source))
+        assert gb.names == one.names and gb.objects == one.objects
+        assert gb.metadata == one.metadata and gb.camera == one.camera
+        for name in one.names:
+            a, b = gb.numpy(name), one.numpy(name)
+            assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), name
+        assert (one.object_id > 0).any()  # the views see something
+
+
+def test12_views_in_one_launch_with_the_beauty():
+    from mi_npr.render import render_gbuffer, render_views
+    from mi_npr.session import SceneSession
+
+    s, sensors = _sensors("scenes_xml/scene1.xml", "orbit:2", (24, 16))
+    integrator = s.scene.integrator()
+    many = render_views(s, sensors, integrator, spp=2, seed=5)
+    lit = False
+    for gb, sensor in zip(many, sensors, strict=True):
+        one = render_gbuffer(
+            SceneSession(s.scene, sensor, s.source), beauty=integrator, spp=2, seed=5
+        )
+        for name in one.names:
+            a, b = gb.numpy(name), one.numpy(name)
+            if name in ("R", "G", "B"):  # Mitsuba's own render: its film adds samples in the
+                # order its threads take them, so two renders differ in the last bits
+                assert np.allclose(a, b, rtol=1e-5, atol=1e-6), name
+                lit = lit or bool(np.abs(a).max() > 0)
+            else:
+                assert a.tobytes() == b.tobytes(), name
+        assert gb.metadata["mi_npr/beauty"] != "headlight"
+    assert lit  # a beauty, not black
+
+
+def test13_views_that_differ_by_more_than_their_pose_are_refused():
+    from mi_npr.camera import Camera, sensor_for
+    from mi_npr.render import render_views
+
+    s, sensors = _sensors("scenes_xml/scene1.xml", "orbit:2", (24, 16))
+    cam = Camera((0.0, 1.0, 5.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 30.0)  # another fov
+    with pytest.raises(ParameterError, match="one film size, field of view"):
+        render_views(s, [*sensors, sensor_for(cam, s.sensor)])
+    assert render_views(s, []) == []
+
+
+def test14_dataset_files_do_not_depend_on_views_per_launch(tmp_path):
+    """One view per launch and three: the same files, byte for byte except the EXR's
+    compression of equal layers (compared layer by layer), and the same manifest rows."""
+    meshes = tmp_path / "m"
+    meshes.mkdir()
+    write_ply(meshes / "box.ply", *box(SIZE, CENTRE))
+    (meshes / "tet.obj").write_text(TET)
+    kw = {"width": 32, "height": 24, "workers": 0, "progress": False, "drawings": ("lines",)}
+    runs = {
+        k: D.make_dataset(
+            [meshes], tmp_path / f"k{k}", "random:4", seed=1, views_per_launch=k, **kw
+        )
+        for k in (1, 3)
+    }
+    strip = ("job", "seconds", "finished", "worker")
+    for a, b in zip(runs[1], runs[3], strict=True):
+        assert {k: v for k, v in a.items() if k not in strip} == {
+            k: v for k, v in b.items() if k not in strip
+        }
+        assert a["status"] == "done" and set(a["files"]) >= {"exr", "png", "lines.png", "lines.svg"}
+        for kind, name in a["files"].items():
+            one, three = tmp_path / "k1" / name, tmp_path / "k3" / b["files"][kind]
+            if kind == "exr":
+                g1, g3 = read_exr(one), read_exr(three)
+                assert g1.names == g3.names
+                for layer in g1.names:
+                    assert g1.numpy(layer).tobytes() == g3.numpy(layer).tobytes(), layer
+                assert g1.metadata["mi_npr/beauty"] == "headlight"  # no beauty unless asked
+            else:  # the SVG's title names its scene, in its own OUT
+                here = str(tmp_path / "k3").encode()
+                assert one.read_bytes().replace(str(tmp_path / "k1").encode(), here) == (
+                    three.read_bytes()
+                ), kind
+
+
+#: The tetrahedron with a fin: a fifth triangle on the edge from (1, 0, 0) to (0, 1, 0), which
+#: two of the tetrahedron's faces share already: one edge of three triangles.
+FIN = TET + "v 1 1 1\nf 2 3 5\n"
+
+
+@pytest.mark.parametrize("rule", ["warn", "skip"])
+def test15_non_manifold_meshes_warn_or_skip(tmp_path, made, rule):
+    (tmp_path / "fin.obj").write_text(FIN)
+    (tmp_path / "tet.obj").write_text(TET)
+    kw = {"width": 16, "height": 16, "workers": 0, "progress": False, "drawings": ("lines",)}
+    rows = D.make_dataset([tmp_path], tmp_path / "out", "orbit:2", non_manifold=rule, **kw)
+    fin = [r for r in rows if r["mesh"].endswith("fin.obj")]
+    tet = [r for r in rows if r["mesh"].endswith("tet.obj")]
+    why = "fin.obj: non-manifold: 1 edge shared by more than two triangles"
+    assert [r["status"] for r in tet] == ["done", "done"]
+    assert all(r["warning"] is None for r in tet)
+    if rule == "warn":  # rendered, every row says so
+        assert [(r["status"], r["warning"].endswith(why)) for r in fin] == [("done", True)] * 2
+    else:
+        assert [(r["status"], r["view"]) for r in fin] == [("skipped", None)]
+        assert fin[0]["error"].endswith(why)
+    _, fixture = made  # closed meshes, an STL's repeated corners among them: no warning
+    assert all(r.get("warning") is None for r in fixture if r["status"] == "done")
+    with pytest.raises(ParameterError, match="non_manifold"):
+        D.make_dataset([tmp_path / "tet.obj"], tmp_path / "o", non_manifold="drop", **kw)
+
+
+def _rss_mb() -> float:
+    for line in open("/proc/self/status"):
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    raise AssertionError("no VmRSS in /proc/self/status")
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="reads Linux's /proc")
+def test16_memory_and_kernels_stay_flat_over_many_jobs(tmp_path):
+    """120 jobs in this process: 10 meshes of different sizes, 12 views each. From the fourth
+    mesh on, the resident set grows by less than 10% (the caches are bounded: scenes, the launch
+    of views, Dr.Jit's kernels) and almost no kernel is new: a kernel that baked in a view's or
+    a mesh's values (a literal camera axis did) is a kernel of its own for every one of them,
+    kept in Dr.Jit's cache for good."""
+    import drjit as dr
+
+    from mi_npr import batch
+
+    kw = {"width": 16, "height": 16, "workers": 0, "progress": False, "drawings": ("lines",)}
+    rss, new_kernels, seen = [], [], set()
+    dr.set_flag(dr.JitFlag.KernelHistory, True)
+    try:
+        for m in range(10):
+            folder = tmp_path / f"m{m}"
+            folder.mkdir()
+            V_, F_ = uv_sphere(6 + 3 * m, 4 + 2 * m)
+            write_ply(folder / f"mesh{m}.ply", V_ * (1.0 + 0.2 * m), F_)
+            dr.kernel_history()  # clears it
+            rows = D.make_dataset([folder], tmp_path / "out", "random:12", seed=m, **kw)
+            assert [r["status"] for r in rows] == ["done"] * 12
+            hashes = {str(k["hash"]) for k in dr.kernel_history() if "hash" in k}
+            new_kernels.append(len(hashes - seen))  # in memory or on disk, a kernel of its own
+            seen |= hashes
+            rss.append(_rss_mb())
+    finally:
+        dr.set_flag(dr.JitFlag.KernelHistory, False)
+    assert max(rss[3:]) < 1.1 * rss[3], rss
+    # a few a mesh (its virtual calls), never one a view: 12 views would make 12
+    assert max(new_kernels[3:]) <= 5, new_kernels
+    assert len(batch._LAUNCH["views"]) < 12 and len(batch._SCENES) <= batch.SCENE_CACHE

@@ -66,6 +66,9 @@ def run(args: argparse.Namespace) -> int:
             width=args.width,
             height=args.height,
             spp=args.spp,
+            views_per_launch=args.views_per_launch,
+            beauty=args.beauty,
+            non_manifold=args.non_manifold,
             params=drawing_values(args),
             **cluster_options(args),
             progress=bars,
@@ -74,6 +77,8 @@ def run(args: argparse.Namespace) -> int:
     failed = [r for r in rows if r["status"] == "failed"]
     for r in skipped:
         warn(f"skipped {r['error']}")
+    for text in dict.fromkeys(r["warning"] for r in rows if r.get("warning")):
+        warn(text)  # once per mesh
     if not bars:  # else the progress bar printed each line as its job ended
         for r in failed:
             fail(str(r.get("error")))

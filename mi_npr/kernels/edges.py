@@ -218,6 +218,9 @@ def crease_edge(
     is below ``crease_angle`` (normals turning by more than ``180 - crease_angle``) and that own
     the edge (:func:`owns`; ties to the surface facing ``view``'s camera more)."""
     cos_a = ids.grid.opaque(round(math.cos(math.radians(180.0 - crease_angle)), 12))
+    # Opaque, not literals: a kernel of its own for every camera axis would fill Dr.Jit's
+    # kernel cache over the views of a long batch.
+    view = tuple(ids.grid.opaque(c) for c in view)  # type: ignore[assignment]
     n0 = [f.at() for f in N]
     u0 = _unit(n0)
     facing0 = -(u0[0] * view[0] + u0[1] * view[1] + u0[2] * view[2])
