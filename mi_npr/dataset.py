@@ -69,7 +69,7 @@ import numpy as np
 
 from . import batch
 from .camera import fit_distance
-from .errors import InputError, ParameterError, one_line
+from .errors import InputError, ParameterError, as_path, one_line, shown
 from .io._atomic import atomic_output, check_writable_dir
 from .meshes import write_ply
 from .params import (
@@ -186,8 +186,13 @@ def find_meshes(
     converted meshes are no inputs)."""
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
+    if not isinstance(inputs, (list, tuple)):
+        raise ParameterError(
+            f"meshes = {shown(inputs)}: expected mesh files, folders or globs (a list of paths)"
+        )
     if not inputs:
         raise ParameterError("meshes: give at least one mesh, folder or glob")
+    inputs = [as_path(v, "meshes: entry") for v in inputs]
     found: list[str] = []
     known = (*NATIVE, *CONVERTED)
     for given in map(os.fspath, inputs):
@@ -272,7 +277,7 @@ def check_mesh(path: str, out: Path, non_manifold: str = "warn") -> Mesh:
     extent, refused by Mitsuba, non-manifold with ``non_manifold="skip"``) and, for a
     converted format, written as PLY into ``out/meshes``; never raises for a bad mesh: its
     :class:`Mesh` has the reason (a non-manifold mesh with ``"warn"``: its ``warning``)."""
-    stem = Path(path).stem
+    stem = as_path(path, "check_mesh: path").stem
     ext = Path(path).suffix.lower()
     if ext not in NATIVE + CONVERTED:
         return Mesh(path, stem, error=f"{path}: unsupported format {ext or '(none)'}")

@@ -236,24 +236,8 @@ def test01_the_walk_covers_the_entry_points():
 
 WALKED = _walkable()
 
-#: Calls that still raise foreign exceptions, in modules other work is rewriting now; strict:
-#: each entry fails the suite once its module is fixed, so the list only shrinks.
-PENDING = {
-    "mi_npr.dataset.check_mesh",
-    "mi_npr.dataset.find_meshes",
-    "mi_npr.dataset.make_dataset",
-}
 
-
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(n, marks=pytest.mark.xfail(strict=True, reason="module being rewritten"))
-        if n in PENDING
-        else n
-        for n in WALKED
-    ],
-)
+@pytest.mark.parametrize("name", WALKED)
 def test02_bad_values_raise_one_line_mi_npr_errors(name, world, monkeypatch):
     tmp, good = world
     monkeypatch.chdir(tmp)  # a bad name that is still a valid file name ("abc") writes there
