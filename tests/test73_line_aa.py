@@ -162,3 +162,24 @@ def test07_full_ink_filter_hand_made():
     a[:, 4:7] = 0.4  # ... beside the gray band
     got = np.asarray(full_ink_filter(a, 3))[0]
     assert got[1] <= 0.4 + 1e-6 and got[2] <= 0.4 + 1e-6 and got[3] == pytest.approx(1.0)
+
+
+def test08_full_ink_filter_is_differentiable():
+    """d(weighted sum of the filtered image) / d(sub-pixel ink) from ``dr.backward`` agrees with
+    central differences of the float64 reference (random inks: no ties, smooth there)."""
+    dr, mi = mi_npr.dr, mi_npr.mi
+    n, rng = 3, np.random.default_rng(8)
+    a = (rng.random((4 * n, 5 * n)) * (rng.random((4 * n, 5 * n)) < 0.5)).astype(np.float32)
+    weights = rng.random((4, 5))
+    x = mi.TensorXf(a)
+    dr.enable_grad(x)
+    loss = dr.sum((full_ink_filter(x, n) * mi.TensorXf(weights.astype(np.float32))).array)
+    dr.backward(loss)
+    grad = np.asarray(dr.grad(x))
+    eps = 1e-4
+    for y, xx in zip(*np.nonzero(a)[:2], strict=True):
+        up, down = a.astype(np.float64), a.astype(np.float64)
+        up[y, xx] += eps
+        down[y, xx] -= eps
+        fd = ((ref_full_ink(up, n) - ref_full_ink(down, n)) * weights).sum() / (2 * eps)
+        assert grad[y, xx] == pytest.approx(fd, abs=2e-3), (y, xx)
