@@ -39,10 +39,10 @@ moving line keeps its darkest pixel. Ambiguities resolved:
   set ``m`` and leaves a row's darkest pixel at 0.7 to 0.93. Across a line ``b`` rises from 0 to
   its peak, along it only by the staircase, so the larger rise picks the cross-section; a 45
   degree line is crossed by both;
-- *three pixels, whatever the width*: an axis-aligned band ``w`` px wide touches at most
-  ``ceil(w) + 1`` pixels, only the two at its sides partly covered, and each of those lies next
-  to the best-covered one (for ``w >= 2 - 1/n`` a fully covered one: such lines keep ``b``).
-  A wider window (``ceil(w) + 2``) would find nothing more of the line, only its neighbours;
+- *three pixels, whatever the width*: an axis-aligned band covers the pixels inside it whole
+  and only the two at its ends in part, and each of those lies next to the best-covered one
+  (for ``w >= 2 - 1/n`` a fully covered one: such lines keep ``b``). A window of
+  ``ceil(w) + 2`` pixels would find nothing more of the line, only its neighbours;
 - *the clamp to* ``top`` keeps a pixel no darker than its darkest sub-pixel where ``g`` comes
   from a darker line beside it (a gray crease next to a black silhouette stays gray);
 - *below 1 px* the line is the 1-px line lightened by ``w``, as
