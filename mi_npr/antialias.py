@@ -1,40 +1,70 @@
 """Anti-aliased lines: the line chain on a supersampled G-buffer, box-filtered to the
-film's resolution.
+film's resolution and normalised by each line's coverage peak.
 
 The G-buffer of :mod:`mi_npr.render` has one exact ray per pixel centre, so every line is a row
 of whole pixels, jagged wherever it is not axis-aligned. With ``n > 1`` the G-buffer is traced
 again with ``n x n`` rays per pixel, at the sub-pixel centres ``x + (i + 0.5) / n`` (the centres
 of the pixels of a film ``n`` times larger), the chain of :func:`mi_npr.kernels.lines` runs on
-that ``(n H, n W)`` G-buffer with lines :func:`aa_width` sub-pixels wide, and each film pixel
-gets the mean of its ``n x n`` block: the gray level is the share of the pixel's area that the
-line covers, so lines come out smooth at the film's resolution.
+that ``(n H, n W)`` G-buffer with ``line_width`` scaled by ``n`` (:func:`aa_width`), and each
+film pixel gets the mean of its ``n x n`` block, ``b``: the share of the pixel's area that the
+line covers, so lines come out smooth at the film's resolution and keep their width in film
+pixels.
 
-**Full ink on every line** (:func:`aa_width`). A ``w``-px line becomes a band of
-``W = max(w n, 2 n - 1)`` sub-pixels: at least ``2 - 1/n`` film pixels wide. ``2 n - 1``
-consecutive sub-pixels always hold one film pixel's ``n`` whole, so an axis-aligned line covers
-at least one film pixel fully wherever its sub-pixel position falls: its darkest pixel is full
-ink, as at ``n = 1``, never two light-gray halves (a band of exactly ``n`` sub-pixels at a third
-of a pixel gives 0.67 + 0.33). Across an axis-aligned line the ink adds up to ``W / n`` px
-(``5/3`` for ``w = 1``, ``n = 3``) whatever the position, so a moving line does not pulse, and a
-silhouette against the background carries the same ink as a crease. Lines already that wide
-(``w >= 2 - 1/n``) keep ``w n``; a line thinner than 1 px is the 1-px band lightened by ``w``,
-as :func:`mi_npr.kernels.widen_lines` lightens it at ``n = 1``. At ``n = 1``, ``W = w``.
+**Full ink on every line** (:func:`full_ink_filter`). The box filter alone splits a line that
+falls between pixel centres into two light grays: a 1-px band of ``n`` sub-pixels at a third of
+a pixel gives 0.67 + 0.33, lighter than the same line at ``n = 1``. So each pixel's ``b`` is
+divided by the line's own coverage peak ``m`` and multiplied by its gray ``g``::
+
+    ink = min(b * g / m, top)        (0 where m = 0)
+
+``top`` is the darkest sub-pixel of the pixel's own block; ``m`` and ``g`` are the largest ``b``
+and ``top`` of the three pixels ``p - d, p, p + d`` of the cross-section through the pixel,
+``d`` its row or its column, whichever ``b`` rises more along (from its least to its largest
+value; the row on a tie). For a band of uniform gray ``g`` (eq. 5.1's gray level), ``b / g`` is
+the share of the pixel's sub-pixels that the line inks, so the best-covered pixel across the line
+gets exactly ``g`` (full ink for a black line, ``g`` for a gray one) and the others keep their
+coverage relative to it: a 1-px line at a third of a pixel is 1 + 0.5 (``n = 3``), at a pixel's
+edge 1 + 0, silhouettes and creases alike. Across an axis-aligned 1-px line the ink is
+``1 + min(k, n - k) / max(k, n - k)`` px for a band starting ``k`` sub-pixels into a pixel
+(odd ``n``; 1 to 1.5 px at ``n = 3``): its ink width (pixels above 0.5) stays about 1 px, and a
+moving line keeps its darkest pixel. Ambiguities resolved:
+
+- *coverage in ink, not a binary mask*: ``line_width`` widens with a soft disc
+  (:func:`~mi_npr.kernels.widen_lines`), which at even ``n`` gives the band half-ink sides (a
+  1-px band at ``n = 2`` is 0.5, 1, 0.5 sub-pixels). Counted as whole sub-pixels they would
+  leave the darkest pixel at 0.75 (``n = 2``) or 0.875 (``n = 4``); counted at their ink, 1;
+- *a row or a column, not the 3 x 3 square*: a crease found on the supersampled G-buffer steps
+  one sub-pixel from row to row, so successive film rows of one straight line peak at different
+  ``b`` (0.62, 0.67, 1); a square window (or a diagonal) lets a better-aligned neighbouring row
+  set ``m`` and leaves a row's darkest pixel at 0.7 to 0.93. Across a line ``b`` rises from 0 to
+  its peak, along it only by the staircase, so the larger rise picks the cross-section; a 45
+  degree line is crossed by both;
+- *three pixels, whatever the width*: an axis-aligned band covers the pixels inside it whole
+  and only the two at its ends in part, and each of those lies next to the best-covered one
+  (for ``w >= 2 - 1/n`` a fully covered one: such lines keep ``b``). A window of
+  ``ceil(w) + 2`` pixels would find nothing more of the line, only its neighbours;
+- *the clamp to* ``top`` keeps a pixel no darker than its darkest sub-pixel where ``g`` comes
+  from a darker line beside it (a gray crease next to a black silhouette stays gray);
+- *below 1 px* the line is the 1-px line lightened by ``w``, as
+  :func:`~mi_npr.kernels.widen_lines` lightens it at ``n = 1`` (a ``w n``-sub-pixel band,
+  normalised, would be as dark as a 1-px line);
+- ``n = 1`` is the chain itself (the filter is then the identity).
 
 How this extends the thesis (section 5.1). Eq. 5.1 already gives gray levels to small depth
 steps; supersampling carries its contours to sub-pixel positions: a contour that runs through a
-film pixel at a fraction of its width inks that fraction. The other stages run at the
-supersampled resolution, in sub-pixels:
+film pixel at a fraction of its width inks that fraction of its best-covered pixel's ink. The
+other stages run at the supersampled resolution, in sub-pixels:
 
 - eq. 5.2 (isolated-pixel removal) removes contour fragments shorter than 3 *sub-pixels*, so
-  fragments of a film pixel survive that would vanish at ``n = 1``; fragments shorter than the
-  film pixel then enter as faint gray, not as a black dot;
+  fragments of a film pixel survive that would vanish at ``n = 1``; normalised by their own
+  peak, they enter as a pixel of their line's ink;
 - the selective dilation (eqs. 5.3-5.4) fills holes of ``dilation_size`` sub-pixels, i.e.
   ``dilation_size / n`` film pixels: it fills the same geometric holes as at ``n = 1`` only
   up to that size; raise ``dilation_size`` with ``n`` to fill wider ones;
 - ``max_density`` measures ink over a 9x9 window of sub-pixels; ``bright_fade`` is applied after
-  the box filter, from the film-resolution beauty.
+  the filter, from the film-resolution beauty.
 
-``antialiased_lines(..., n)`` equals ``box_filter(lines(G, line_width=aa_width(w, n)), n)``
+``antialiased_lines(..., n)`` equals ``full_ink_filter(lines(G, line_width=aa_width(w, n)), n)``
 (times ``w`` below 1 px) with ``G`` the pixel-centre G-buffer of the same camera on a film ``n``
 times larger (bit for bit where the sub-pixel positions are exact in float32, e.g. ``n`` a power
 of two).
@@ -66,6 +96,10 @@ from .session import RENDER_LOCK
 #: Most rays per pixel side: 8 x 8 = 64 rays per pixel.
 MAX_AA = 8
 
+#: The directions (dy, dx) of a line's cross-section through a pixel, its row and its column:
+#: the 3 pixels ``p - d, p, p + d`` (:func:`full_ink_filter`).
+ACROSS = ((0, 1), (1, 0))
+
 
 def aa_factor(v: Any) -> str | None:
     """The rule for ``line_aa``: an integer in [1, MAX_AA] (rays per pixel side)."""
@@ -75,13 +109,13 @@ def aa_factor(v: Any) -> str | None:
 
 def aa_width(width: float, n: int) -> float:
     """The width in sub-pixels of a ``width``-px line on the ``n``-times supersampled G-buffer:
-    ``max(width n, 2 n - 1)``, the narrowest band that always covers one film pixel whole
-    (module docstring); ``2 n - 1`` below 1 px, where the ink is then scaled by ``width``.
+    ``width n``, and ``n`` (the 1-px line, lightened by ``width`` after the filter) below 1 px
+    (module docstring).
 
-    >>> aa_width(1.0, 3), aa_width(2.0, 3), aa_width(1.0, 1), aa_width(0.5, 4)
-    (5.0, 6.0, 1.0, 7.0)
+    >>> aa_width(1.0, 3), aa_width(1.5, 4), aa_width(1.0, 1), aa_width(0.5, 4)
+    (3.0, 6.0, 1.0, 4.0)
     """
-    return float(width) * n if width * n >= 2 * n - 1 else 2.0 * n - 1.0
+    return float(max(width, 1.0)) * n
 
 
 def check_aa_width(width: float, n: int, who: str = "") -> None:
@@ -115,23 +149,64 @@ def supersampled_gbuffer(scene: mi.Scene, sensor: mi.Sensor, n: int) -> GBuffer:
     return GBuffer(layers, table.names, projection_of(sensor))
 
 
-def box_filter(image: Any, n: int) -> Any:
-    """The mean of every ``n x n`` block of an ``(n H, n W)`` image (a tensor or an array): an
-    ``(H, W)`` float32 tensor, computed in Dr.Jit (each pixel's block gathered contiguously,
-    then one block sum)."""
+def _blocks(image: Any, n: int, who: str) -> tuple[Any, int, int]:
+    """The values of an ``(n H, n W)`` image (a tensor or an array) as a flat ``Float``, each
+    film pixel's ``n x n`` block contiguous, and ``H, W``."""
     if dr.is_tensor_v(image) and dr.is_jit_v(image):
         shape, v = tuple(int(s) for s in image.shape), mi.Float(image.array)
     else:
         a = np.asarray(image, dtype=np.float32)
         shape, v = a.shape, mi.Float(np.ascontiguousarray(a).reshape(-1))
     if len(shape) != 2 or shape[0] % n or shape[1] % n:
-        raise ParameterError(f"box_filter: shape {shape} is not a multiple of {n}")
+        raise ParameterError(f"{who}: shape {shape} is not a multiple of {n}")
     h, w = shape[0] // n, shape[1] // n
     k = dr.arange(mi.UInt32, h * w * n * n)
     p, j = k // (n * n), k % (n * n)  # output pixel, sample within its block
     src = ((p // w) * n + j // n) * shape[1] + (p % w) * n + j % n
-    mean = dr.block_sum(dr.gather(mi.Float, v, src), n * n) * (1.0 / (n * n))
-    return mi.TensorXf(mean, shape=(h, w))
+    return dr.gather(mi.Float, v, src), h, w
+
+
+def box_filter(image: Any, n: int) -> Any:
+    """The mean of every ``n x n`` block of an ``(n H, n W)`` image (a tensor or an array): an
+    ``(H, W)`` float32 tensor, computed in Dr.Jit (each pixel's block gathered contiguously,
+    then one block sum)."""
+    v, h, w = _blocks(image, n, "box_filter")
+    return mi.TensorXf(dr.block_sum(v, n * n) * (1.0 / (n * n)), shape=(h, w))
+
+
+def full_ink_filter(image: Any, n: int) -> Any:
+    """The box filter of an ``(n H, n W)`` line image (a tensor or an array) normalised by each
+    line's coverage peak: ``min(b g / m, top)``, 0 where ``m = 0``, with ``b`` the block mean,
+    ``top`` the block's largest value, ``m`` and ``g`` the largest ``b`` and ``top`` over the
+    pixel's cross-section: the 3 pixels of its row or column around it, whichever ``b`` rises
+    more along (module docstring). An ``(H, W)`` float32 tensor, in Dr.Jit (differentiable).
+
+    A 1-px band (3 sub-pixels at ``n = 3``) a third of a pixel into pixel 1:
+
+    >>> a = np.zeros((3, 9), np.float32); a[:, 4:7] = 1
+    >>> np.asarray(box_filter(a, 3)).round(2), np.asarray(full_ink_filter(a, 3)).round(2)
+    (array([[0.  , 0.67, 0.33]], dtype=float32), array([[0. , 1. , 0.5]], dtype=float32))
+    >>> np.asarray(full_ink_filter(0.4 * a, 3)).round(2)  # eq. 5.1's gray survives
+    array([[0. , 0.4, 0.2]], dtype=float32)
+    """
+    v, h, w = _blocks(image, n, "full_ink_filter")
+    b = dr.block_sum(v, n * n) * (1.0 / (n * n))
+    top = dr.block_reduce(dr.ReduceOp.Max, v, n * n)
+    grid = Grid((h, w), b)
+    m, g, steepest = b, top, dr.full(mi.Float, -1.0, h * w)
+    for dy, dx in ACROSS:
+        i, j = grid.index(-dy, -dx), grid.index(dy, dx)  # border pixels repeat
+        b0, b1 = dr.gather(mi.Float, b, i), dr.gather(mi.Float, b, j)
+        hi = dr.maximum(b, dr.maximum(b0, b1))
+        rise = hi - dr.minimum(b, dr.minimum(b0, b1))
+        take = rise > steepest
+        steepest = dr.select(take, rise, steepest)
+        m = dr.select(take, hi, m)
+        t = dr.maximum(top, dr.maximum(dr.gather(mi.Float, top, i), dr.gather(mi.Float, top, j)))
+        g = dr.select(take, t, g)
+    # m = 0 only where b = 0: divide by 1 there so that no NaN reaches a gradient.
+    ink = dr.minimum(b * g / dr.select(m > 0, m, 1.0), top)
+    return mi.TensorXf(ink, shape=(h, w))
 
 
 def _mapped(gb: GBuffer, ids: Any) -> GBuffer:
@@ -164,7 +239,7 @@ def antialiased_lines(
         big = big.with_layers({L.LEAF_ID: leaf_id_layer(scene, big)})
     level = float(params.get("bright_fade", 0.0))
     sub = {**params, "line_width": aa_width(width, n), "bright_fade": 0.0}
-    ink = box_filter(lines(big, **sub), n)
+    ink = full_ink_filter(lines(big, **sub), n)
     if width < 1.0:  # thinner than a pixel: the 1-px line, lightened (module docstring)
         ink = mi.TensorXf(ink.array * width, shape=ink.shape)
     if level > 0:

@@ -76,8 +76,8 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
      - integer
      - 3
      - Anti-aliasing: the lines are computed from ``line_aa`` x ``line_aa`` rays per pixel and
-       box-filtered to gray levels (1 = the pixel-centre G-buffer, aliased), at least
-       ``2 - 1/line_aa`` px wide so that every line keeps a pixel of full ink. 3: against 8 x 8
+       box-filtered to gray levels (1 = the pixel-centre G-buffer, aliased), normalised so that
+       every line keeps a pixel of full ink. 3: against 8 x 8
        it leaves a fifth of the error of 1 ray (see :mod:`mi_npr.antialias`, which also tells
        how this meets eqs. 5.1-5.4).
    * - ``near``, ``far``

@@ -1,5 +1,6 @@
 """Anti-aliased lines from a supersampled G-buffer equal the box-filtered lines of the
-same camera rendered on a film N times larger."""
+same camera rendered on a film N times larger, normalised by each line's coverage peak
+(:func:`ref_full_ink`, written from the definition in :mod:`mi_npr.antialias`)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,12 @@ import pytest
 import mi_npr
 from mi_npr import kernels as K
 from mi_npr import layers as L
-from mi_npr.antialias import antialiased_lines, box_filter, supersampled_gbuffer
+from mi_npr.antialias import (
+    antialiased_lines,
+    box_filter,
+    full_ink_filter,
+    supersampled_gbuffer,
+)
 
 from .helpers import scene_xml
 
@@ -39,6 +45,32 @@ def ref_box(a, n):
     return out
 
 
+def ref_full_ink(a, n):
+    """Each film pixel's block mean ``b`` times ``g / m``, at most ``top`` (the block's largest
+    sub-pixel): ``m`` and ``g`` the largest ``b`` and ``top`` over the 3 pixels of the pixel's
+    row or column (the one whose ``b`` rises more from its least to its largest value, the row
+    on a tie; pixels beyond the border repeat it); 0 where ``m`` is 0."""
+    b = ref_box(a, n)
+    h, w = b.shape
+    top = a.reshape(h, n, w, n).max(axis=(1, 3)).astype(np.float64)
+    out = np.zeros((h, w))
+    for y in range(h):
+        for x in range(w):
+            best = None
+            for dy, dx in ((0, 1), (1, 0)):
+                cells = [
+                    (min(max(y + k * dy, 0), h - 1), min(max(x + k * dx, 0), w - 1))
+                    for k in (-1, 0, 1)
+                ]
+                vals = [b[c] for c in cells]
+                rise = max(vals) - min(vals)
+                if best is None or rise > best[0]:
+                    best = (rise, max(vals), max(top[c] for c in cells))
+            _, m, g = best
+            out[y, x] = 0.0 if m == 0 else min(b[y, x] * g / m, top[y, x])
+    return out
+
+
 def test01_box_filter_matches_reference():
     a = np.random.default_rng(73).random((12, 18)).astype(np.float32)
     for n in (1, 2, 3, 6):
@@ -51,8 +83,8 @@ def test01_box_filter_matches_reference():
 @pytest.mark.parametrize("params", [{}, {"line_width": 1.5, "t": 0.5}])
 def test02_supersampled_equals_box_filtered_large_film(tmp_path, n, params):
     """n x n rays per pixel = the pixel centres of a film n times larger (exact for powers of
-    two), so the AA lines are the large film's lines, line_width scaled by n (at least 2n - 1
-    sub-pixels), box-filtered."""
+    two), so the AA lines are the large film's lines, line_width scaled by n, box-filtered and
+    normalised."""
     w, h = 24, 16
     scene = _scene(tmp_path, w, h)
     gb = mi_npr.render(scene)
@@ -62,8 +94,7 @@ def test02_supersampled_equals_box_filtered_large_film(tmp_path, n, params):
     for name in (L.Z, L.OBJECT_ID, *L.N):
         np.testing.assert_array_equal(sup.numpy(name), big.numpy(name), err_msg=name)
     width = params.get("line_width", 1.0)
-    sub = max(width * n, 2 * n - 1)  # at least 2 - 1/n px: one film pixel always whole
-    expected = ref_box(np.asarray(K.lines(big, **{**params, "line_width": sub})), n)
+    expected = ref_full_ink(np.asarray(K.lines(big, **{**params, "line_width": width * n})), n)
     got = np.asarray(antialiased_lines(scene, sensor, gb, n, **params))
     assert got.shape == (h, w) and got.dtype == np.float32
     np.testing.assert_allclose(got, expected, atol=1e-6)
@@ -76,7 +107,7 @@ def test03_three_by_three_matches_up_to_rounding(tmp_path):
     w, h, n = 24, 16, 3
     scene = _scene(tmp_path, w, h)
     big = mi_npr.render(_scene(tmp_path, w * n, h * n))
-    expected = ref_box(np.asarray(K.lines(big, line_width=2.0 * n - 1)), n)
+    expected = ref_full_ink(np.asarray(K.lines(big, line_width=float(n))), n)
     got = antialiased_lines(scene, scene.sensors()[0], mi_npr.render(scene), n)
     assert np.mean(np.abs(got - expected) > 1e-6) < 0.02
 
@@ -101,3 +132,54 @@ def test05_plugin_and_bad_values(write_scene):
         antialiased_lines(scene, sensor, gb, 2, line_width=8.0)
     with pytest.raises(mi_npr.ParameterError, match="unknown parameter 'cc'"):
         antialiased_lines(scene, sensor, gb, 2, cc=1.0)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test06_full_ink_filter_matches_reference(n):
+    """Random images (sparse ink, gray levels), one pixel, odd sizes, no ink at all."""
+    rng = np.random.default_rng(74 + n)
+    cases = [rng.random((7 * n, 9 * n)) * (rng.random((7 * n, 9 * n)) < 0.2)]
+    cases += [rng.random((n, n)), rng.random((5 * n, 1 * n)), np.zeros((3 * n, 4 * n))]
+    for a in cases:
+        a = a.astype(np.float32)
+        got = np.asarray(full_ink_filter(a, n))
+        assert got.shape == (a.shape[0] // n, a.shape[1] // n) and got.dtype == np.float32
+        np.testing.assert_allclose(got, ref_full_ink(a, n), atol=1e-5)
+    with pytest.raises(mi_npr.ParameterError, match="full_ink_filter: shape"):
+        full_ink_filter(np.zeros((4, 6), np.float32), 4)
+
+
+def test07_full_ink_filter_hand_made():
+    """A 3-sub-pixel band a third into pixel 1 (n = 3): box 2/3 + 1/3, filtered 1 + 1/2; gray
+    0.4 keeps its gray; a gray line beside a black one is never darker than its sub-pixels."""
+    a = np.zeros((3, 12), np.float32)
+    a[:, 4:7] = 1.0
+    np.testing.assert_allclose(np.asarray(full_ink_filter(a, 3)), [[0, 1, 0.5, 0]], atol=1e-6)
+    np.testing.assert_allclose(
+        np.asarray(full_ink_filter(0.4 * a, 3)), [[0, 0.4, 0.2, 0]], atol=1e-6
+    )
+    a[:, 9] = 1.0  # one black sub-pixel column in pixel 3 ...
+    a[:, 4:7] = 0.4  # ... beside the gray band
+    got = np.asarray(full_ink_filter(a, 3))[0]
+    assert got[1] <= 0.4 + 1e-6 and got[2] <= 0.4 + 1e-6 and got[3] == pytest.approx(1.0)
+
+
+def test08_full_ink_filter_is_differentiable():
+    """d(weighted sum of the filtered image) / d(sub-pixel ink) from ``dr.backward`` agrees with
+    central differences of the float64 reference (random inks: no ties, smooth there)."""
+    dr, mi = mi_npr.dr, mi_npr.mi
+    n, rng = 3, np.random.default_rng(8)
+    a = (rng.random((4 * n, 5 * n)) * (rng.random((4 * n, 5 * n)) < 0.5)).astype(np.float32)
+    weights = rng.random((4, 5))
+    x = mi.TensorXf(a)
+    dr.enable_grad(x)
+    loss = dr.sum((full_ink_filter(x, n) * mi.TensorXf(weights.astype(np.float32))).array)
+    dr.backward(loss)
+    grad = np.asarray(dr.grad(x))
+    eps = 1e-4
+    for y, xx in zip(*np.nonzero(a)[:2], strict=True):
+        up, down = a.astype(np.float64), a.astype(np.float64)
+        up[y, xx] += eps
+        down[y, xx] -= eps
+        fd = ((ref_full_ink(up, n) - ref_full_ink(down, n)) * weights).sum() / (2 * eps)
+        assert grad[y, xx] == pytest.approx(fd, abs=2e-3), (y, xx)

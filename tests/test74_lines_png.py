@@ -52,11 +52,10 @@ def test02_flags_reach_the_drawing(ball, tmp_path):
     assert np.all(png[gb.numpy(L.LINES) == 1] == (255, 0, 0))
     beauty = np.asarray(Image.open(out / "ball.png"))
     assert np.all(beauty[gb.numpy(L.LINES) == 1] == (255, 0, 0))  # the composite's colour too
-    # Wider than the default: more ink. Anti-aliased lines are at least 2 - 1/n px wide
-    # (mi_npr.antialias): 2 px at line_aa 2 against the default's 5/3 px at line_aa 3.
+    # Wider than the default: more ink.
     assert cli.main(["render", str(ball), "-o", str(tmp_path / "d"), "--no-progress"]) == 0
     assert (
-        gb.numpy(L.LINES).sum() > read_exr(tmp_path / "d" / "ball.exr").numpy(L.LINES).sum() * 1.15
+        gb.numpy(L.LINES).sum() > read_exr(tmp_path / "d" / "ball.exr").numpy(L.LINES).sum() * 1.5
     )
 
 
