@@ -8,8 +8,9 @@ and Blender (Debian's ``blender``, headless) imports that OBJ, looks through the
 (``render_freestyle_svg``): visible silhouette, border and crease lines (134 degrees, the
 strokes' default), 1 px.
 
-Ours: :func:`mi_npr.strokes.drawing.draw_strokes` with the ``technical`` style without hidden
-lines (what is drawn is the visible strokes, QI 0 and seen through glass).
+Ours: :func:`mi_npr.strokes.drawing.draw_strokes` with the ``technical`` style and ``max_qi``
+0, the visible strokes only (QI 0 and seen through glass), which is what Freestyle's lineset
+draws; the drawing's default (``max_qi`` 1, hidden lines dashed) is timed beside it.
 
 Measures:
 
@@ -22,8 +23,8 @@ Measures:
 - **time**: our stroke step (extract, style, rasterise; warm median of ``--repeat`` runs, and the
   extraction alone) against Freestyle's line pass, the sum of its own stage timers printed with
   ``--debug-freestyle`` (goal on Lego: at most 1/100, <= 0.4 s);
-- **memory**: our process's peak RSS and its rise over the stroke step alone (goal <= 1 GB);
-  Blender's peak RSS;
+- **memory**: our process's peak RSS (the scene loaded included) and its rise over the stroke
+  step alone (goal <= 1 GB); Blender's peak RSS;
 - **SVG size**: ours (visible strokes) against Freestyle's (goal: no larger).
 
 The tutorials come from ``--tutorials DIR`` (a clone of mitsuba-renderer/mitsuba-tutorials;
@@ -266,20 +267,26 @@ scene = mi_npr.load_scene(cfg["xml"], width=cfg["w"], height=cfg["h"])
 sensor = scene.sensors()[0]
 table = object_table(scene)
 params = {p.name: p.default for p in STROKES_PARAMS}
-params.update(style="technical", hidden=False, crease_angle=cfg["crease"])
+# what Freestyle's lineset draws: the visible lines (max_qi 0 casts no ray past the first hit)
+params.update(style="technical", hidden=False, crease_angle=cfg["crease"], max_qi=0)
+hidden = dict(params, hidden=True, max_qi=1)  # the drawing's default: hidden lines too
 before = rss_mb()
 t0 = time.perf_counter()
 drawing = draw_strokes(scene, sensor, table, params)
 cold = time.perf_counter() - t0
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-warm, extract = [], []
+warm, extract, with_hidden = [], [], []
 for _ in range(cfg["repeat"]):
     t0 = time.perf_counter()
     draw_strokes(scene, sensor, table, params)
     warm.append(time.perf_counter() - t0)
     t0 = time.perf_counter()
-    extract_strokes(scene, sensor, table, crease_angle=cfg["crease"])
+    extract_strokes(scene, sensor, table, crease_angle=cfg["crease"], max_qi=0)
     extract.append(time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    n_hidden = len(draw_strokes(scene, sensor, table, hidden).strokes)
+    with_hidden.append(time.perf_counter() - t0)
+peak_hidden = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 st = drawing.strokes
 visible = [s for s in st if s.qi == 0]
 open(cfg["svg"], "w").write(stroke_svg(drawing))
@@ -292,6 +299,9 @@ json.dump({
     "strokes_all": len(st), "strokes_visible": len(visible),
     "cold_s": cold, "warm_s": statistics.median(warm) if warm else cold,
     "extract_s": statistics.median(extract) if extract else None,
+    "with_hidden_s": statistics.median(with_hidden) if with_hidden else None,
+    "strokes_with_hidden": n_hidden if with_hidden else None,
+    "peak_with_hidden_mb": peak_hidden,
     "rss_before_mb": before, "peak_rss_mb": peak,
     "peak_after_repeats_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
     "variant": mi_npr.mi.variant(),
@@ -467,7 +477,9 @@ def main() -> int:
             "ours": {
                 **stroke_stats(mine["polylines"]),
                 "kinds_visible": mine["kinds"],
-                "strokes_with_hidden": mine["strokes_all"],
+                "strokes_with_hidden": mine["strokes_with_hidden"],
+                "stroke_step_with_hidden_s": mine["with_hidden_s"],
+                "peak_rss_with_hidden_mb": mine["peak_with_hidden_mb"],
                 "stroke_step_s": mine["warm_s"],
                 "stroke_step_cold_s": mine["cold_s"],
                 "extract_s": mine["extract_s"],

@@ -364,9 +364,9 @@ EXTRACT_PARAMS: tuple[Param, ...] = (
         "max_qi",
         int,
         1,
-        "hidden lines behind more surfaces than this are not drawn (1: an object's own back "
-        "edges and what lies behind one sheet)",
-        integer_range(1, MAX_QI),
+        "hidden lines behind more surfaces than this are not drawn (0: visible lines only; 1: "
+        "an object's own back edges and what lies behind one sheet)",
+        integer_range(0, MAX_QI),
     ),
     Param(
         "raytree_depth",
