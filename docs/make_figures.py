@@ -343,6 +343,30 @@ def dataset_panel() -> Path:
     return _figure(panels, "dataset_contact_sheet.png", (4, 6), (15, 10.4), 64)
 
 
+def strokes_lego_panel() -> Path | None:
+    """The tutorials' Lego model in the ``technical`` style (hidden lines dashed) and the
+    ``illustration`` style, 640x480 (needs ``$MI_NPR_TUTORIALS``, a mitsuba-tutorials clone)."""
+    from mi_npr.io.strokes import strokes_on_paper
+    from mi_npr.scene import object_table
+    from mi_npr.strokes.drawing import STROKES_PARAMS, draw_strokes
+
+    root = os.environ.get("MI_NPR_TUTORIALS")
+    if not root:
+        print("strokes_lego: set MI_NPR_TUTORIALS to a mitsuba-tutorials clone")
+        return None
+    scene = mi_npr.load_scene(Path(root) / "scenes/lego/scene.xml", width=640, height=480)
+    sensor, table = scene.sensors()[0], object_table(scene)
+    panels = []
+    for style, title in (
+        ("technical", "technical: hidden lines dashed (max_qi 1)"),
+        ("illustration", "illustration: widths by depth, tapered, no hidden lines"),
+    ):
+        params = {p.name: p.default for p in STROKES_PARAMS} | {"style": style}
+        d = draw_strokes(scene, sensor, table, params)
+        panels.append((mi_npr.io.to_rgb8(strokes_on_paper(d)), title))
+    return _figure(panels, "strokes_lego.png", (1, 2), (16, 6.2), 80)
+
+
 PANELS = {
     "overview": overview_panel,
     "gbuffer": gbuffer_panel,
@@ -355,6 +379,7 @@ PANELS = {
     "fit_camera": fit_camera_panel,
     "fit_shape": fit_shape_panel,
     "dataset": dataset_panel,
+    "strokes_lego": strokes_lego_panel,
 }
 
 if __name__ == "__main__":
