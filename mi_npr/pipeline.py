@@ -259,6 +259,7 @@ def lines_as_strokes(
                 session.sensor,
                 session.objects,
                 crease_angle=crease,
+                max_qi=0,  # the visible strokes alone: no ray past the first surface
                 depth_range=depth_range_of(z) if z is not None else None,
             )
         except ParameterError:  # a camera the strokes refuse: every line pixel is traced
