@@ -202,9 +202,13 @@ def write_obj(path: Path, meshes: list[Mesh]) -> Path:
 
 # ------------------------------------------------------------------ Blender / Freestyle
 
-BLENDER_SCRIPT = r"""
+#: Blender's side of every Freestyle comparison (this one and ``bench_strokes.py``): the OBJ of
+#: ``cfg["obj"]`` with holdout materials on a transparent film, the camera of ``cfg`` (Mitsuba's
+#: lookat as a matrix, horizontal fov, clip planes), Cycles at 1 sample, and one lineset of
+#: visible silhouette, border and crease lines (``cfg["crease"]`` degrees), 1 px black.
+FREESTYLE_SCENE = r"""
 import json, math, sys, time
-import bpy
+import addon_utils, bpy
 from mathutils import Matrix
 
 cfg = json.loads(open(sys.argv[sys.argv.index("--") + 1]).read())
@@ -225,7 +229,7 @@ for ob in scene.objects:
 cam_data = bpy.data.cameras.new("cam")
 cam_data.sensor_fit = "HORIZONTAL"
 cam_data.angle = math.radians(cfg["fov"])
-cam_data.clip_start, cam_data.clip_end = 0.01, 1000.0
+cam_data.clip_start, cam_data.clip_end = cfg.get("near", 0.01), cfg.get("far", 1000.0)
 cam = bpy.data.objects.new("cam", cam_data)
 scene.collection.objects.link(cam)
 cam.matrix_world = Matrix(cfg["matrix"])
@@ -245,7 +249,7 @@ r.line_thickness_mode = "ABSOLUTE"
 r.line_thickness = 1.0
 vl = scene.view_layers[0]
 fs = vl.freestyle_settings
-fs.crease_angle = math.radians(134.0)
+fs.crease_angle = math.radians(cfg.get("crease", 134.0))
 fs.use_culling = False
 for ls in list(fs.linesets):
     fs.linesets.remove(ls)
@@ -259,6 +263,11 @@ for flag in ("external_contour", "contour", "suggestive_contour", "ridge_valley"
     setattr(ls, "select_" + flag, False)
 ls.linestyle.thickness = 1.0
 ls.linestyle.color = (0.0, 0.0, 0.0)
+"""
+
+BLENDER_SCRIPT = (
+    FREESTYLE_SCENE
+    + r"""
 times = {}
 for use in (False, True, False, True):  # the second pair: caches and kernels warm
     r.use_freestyle = use
@@ -268,6 +277,7 @@ for use in (False, True, False, True):  # the second pair: caches and kernels wa
     times["with" if use else "without"] = time.perf_counter() - t0
 json.dump(times, open(cfg["times"], "w"))
 """
+)
 
 
 def blender_available(allow_install: bool) -> tuple[str | None, str]:

@@ -53,7 +53,13 @@ from pathlib import Path
 
 import _common
 import numpy as np
-from bench_drawing import blender_available, camera_matrix, freestyle_stages, side_by_side
+from bench_drawing import (
+    FREESTYLE_SCENE,
+    blender_available,
+    camera_matrix,
+    freestyle_stages,
+    side_by_side,
+)
 
 HERE = Path(__file__).resolve().parent
 W, H = 640, 480
@@ -113,79 +119,24 @@ def scene_obj(scene, path: Path) -> dict:
             f.write(("f %d %d %d\n" * len(fc)) % tuple((fc + base).ravel()))
             base += len(v)
             written.append(name)
-    return {"objects": written, "left_out": left, "triangles_written": None}
+    return {"objects": written, "left_out": left}
 
 
 # ------------------------------------------------------------------ Freestyle
 
-BLENDER_SCRIPT = r"""
-import json, math, sys, time
-import addon_utils, bpy
-from mathutils import Matrix
-
-cfg = json.loads(open(sys.argv[sys.argv.index("--") + 1]).read())
-bpy.ops.wm.read_factory_settings(use_empty=True)
+BLENDER_SCRIPT = (
+    FREESTYLE_SCENE
+    + r"""
 addon_utils.enable("render_freestyle_svg", default_set=True)
-scene = bpy.context.scene
-t0 = time.perf_counter()
-bpy.ops.wm.obj_import(filepath=cfg["obj"], forward_axis="Y", up_axis="Z")
-import_s = time.perf_counter() - t0
-holdout = bpy.data.materials.new("holdout")
-holdout.use_nodes = True
-nodes = holdout.node_tree.nodes
-nodes.clear()
-out = nodes.new("ShaderNodeOutputMaterial")
-hold = nodes.new("ShaderNodeHoldout")
-holdout.node_tree.links.new(hold.outputs[0], out.inputs[0])
-for ob in scene.objects:
-    if ob.type == "MESH":
-        ob.data.materials.clear()
-        ob.data.materials.append(holdout)
-cam_data = bpy.data.cameras.new("cam")
-cam_data.sensor_fit = "HORIZONTAL"
-cam_data.angle = math.radians(cfg["fov"])
-cam_data.clip_start, cam_data.clip_end = cfg["near"], cfg["far"]
-cam = bpy.data.objects.new("cam", cam_data)
-scene.collection.objects.link(cam)
-cam.matrix_world = Matrix(cfg["matrix"])
-scene.camera = cam
-r = scene.render
-r.engine = "CYCLES"
-scene.cycles.samples = 1
-scene.cycles.use_denoising = False
-scene.cycles.device = "CPU"
-r.resolution_x, r.resolution_y, r.resolution_percentage = cfg["w"], cfg["h"], 100
-r.film_transparent = True
-r.threads_mode = "FIXED"
-r.threads = cfg["threads"]
-r.image_settings.file_format = "PNG"
-r.image_settings.color_mode = "RGBA"
-r.line_thickness_mode = "ABSOLUTE"
-r.line_thickness = 1.0
-vl = scene.view_layers[0]
-fs = vl.freestyle_settings
-fs.crease_angle = math.radians(cfg["crease"])
-fs.use_culling = False
-for ls in list(fs.linesets):
-    fs.linesets.remove(ls)
-ls = fs.linesets.new("lines")
-ls.select_by_visibility, ls.visibility = True, "VISIBLE"
-ls.select_by_edge_types = True
-for flag in ("silhouette", "border", "crease"):
-    setattr(ls, "select_" + flag, True)
-for flag in ("external_contour", "contour", "suggestive_contour", "ridge_valley",
-             "material_boundary", "edge_mark"):
-    setattr(ls, "select_" + flag, False)
-ls.linestyle.thickness = 1.0
-ls.linestyle.color = (0.0, 0.0, 0.0)
 scene.svg_export.use_svg_export = True
 scene.svg_export.mode = "FRAME"
 r.use_freestyle = True
 r.filepath = cfg["png"]
 t0 = time.perf_counter()
 bpy.ops.render.render(write_still=True)
-json.dump({"render_s": time.perf_counter() - t0, "import_s": import_s}, open(cfg["times"], "w"))
+json.dump({"render_s": time.perf_counter() - t0}, open(cfg["times"], "w"))
 """
+)
 
 
 def run_blender(exe: str, obj: Path, cam: dict, work: Path, threads: int) -> dict:
