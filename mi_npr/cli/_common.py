@@ -215,6 +215,16 @@ def add_scenes(cmd: argparse.ArgumentParser, who: str) -> None:
     add_memory(cmd)
 
 
+def add_target_drawing(cmd: argparse.ArgumentParser) -> None:
+    """The positional ``DRAWING.png`` of the fitting commands (``fit-camera``, ``fit-shape``)."""
+    cmd.add_argument(
+        "drawing",
+        metavar="DRAWING.png",
+        help="the line drawing (dark ink on light paper, PNG, or an SVG of paths), the size of "
+        "the scene's film",
+    )
+
+
 def add_scene(cmd: argparse.ArgumentParser) -> None:
     cmd.add_argument(
         "scene", metavar="SCENE.xml", help="Mitsuba XML scene, or a bundled scene's name"

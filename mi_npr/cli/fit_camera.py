@@ -8,7 +8,7 @@ import argparse
 import json
 
 from ..ad.fit import FIT_PARAMS, camera_error, write_fit_camera
-from ._common import add_defines, add_params, add_scene, t
+from ._common import add_defines, add_params, add_scene, add_target_drawing, t
 
 NAME = "fit-camera"
 HELP = "find the camera from which a scene looks like a line drawing; write it as a sensor"
@@ -17,12 +17,7 @@ TABLES = (FIT_PARAMS,)
 
 def add_arguments(cmd: argparse.ArgumentParser) -> None:
     add_scene(cmd)
-    cmd.add_argument(
-        "drawing",
-        metavar="DRAWING.png",
-        help="the line drawing (dark ink on light paper, PNG, or an SVG of paths), the size of "
-        "the scene's film",
-    )
+    add_target_drawing(cmd)
     add_params(cmd, FIT_PARAMS, NAME)
     cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
     add_defines(cmd)

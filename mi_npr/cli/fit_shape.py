@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 
 from ..ad.fit import SHAPE_FIT_PARAMS, write_fit_shape
-from ._common import add_defines, add_params, add_scene, t
+from ._common import add_defines, add_params, add_scene, add_target_drawing, t
 
 NAME = "fit-shape"
 HELP = "find the pose of one object from which a scene looks like a line drawing"
@@ -16,12 +16,7 @@ TABLES = (SHAPE_FIT_PARAMS,)
 
 def add_arguments(cmd: argparse.ArgumentParser) -> None:
     add_scene(cmd)
-    cmd.add_argument(
-        "drawing",
-        metavar="DRAWING.png",
-        help="the line drawing (dark ink on light paper, PNG, or an SVG of paths), the size of "
-        "the scene's film",
-    )
+    add_target_drawing(cmd)
     cmd.add_argument("--object", required=True, help="the object to move (its id in the scene)")
     add_params(cmd, SHAPE_FIT_PARAMS, NAME)
     cmd.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory")
