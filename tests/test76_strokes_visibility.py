@@ -171,7 +171,11 @@ def test05_mesh_edges_behind_glass_keep_their_qi(tmp_path):
     key = lambda s: (s.kind, s.qi, np.round(s.points, 3).tobytes())  # noqa: E731
     assert sorted(map(key, a)) == sorted(map(key, b))  # same strokes, same QI
     assert all(s.through_glass for s in b)
-    assert sorted(s.qi for s in b) == [0] * (len(b) - 3) + [1, 1, 1]
+    # the three back edges, hidden by the box itself (QI 1): two of them chained at the back
+    # corner where they turn by less than chain_angle, so 2 or 3 strokes of 3 segments
+    hidden = [s for s in b if s.qi == 1]
+    assert {s.qi for s in b} == {0, 1} and 2 <= len(hidden) <= 3
+    assert sum(len(s) - 1 for s in hidden) == 3
 
 
 def test06_visibility_rays_reuse_their_compiled_kernel(tmp_path):
@@ -244,9 +248,10 @@ def test08_max_qi_leaves_out_what_lies_deeper(tmp_path):
 
 
 def _chains_by_walking(node0, node1, cls, dir0, dir1, max_turn):
-    """Chaining by hand (the rules of :mod:`mi_npr.strokes.chain`): join the two ends of one
-    class meeting at a node unless the turn is too sharp, then walk the pieces one by one:
-    open chains from the lower end piece's free end, then loops from their lowest piece."""
+    """Chaining by hand (the rules of :mod:`mi_npr.strokes.chain`): at each node, join ends of
+    one class in pairs, the straightest first, unless the turn is too sharp; then walk the
+    pieces one by one: open chains from the lower end piece's free end, then loops from their
+    lowest piece."""
     n = len(cls)
     ends = {}
     for p in range(n):
@@ -254,17 +259,22 @@ def _chains_by_walking(node0, node1, cls, dir0, dir1, max_turn):
             ends.setdefault((int(node), int(cls[p])), []).append((p, side))
     link = {}
     for group in ends.values():
-        if len(group) != 2 or group[0][0] == group[1][0]:
-            continue
-        (p, a), (q, b) = group
-        u1 = (dir0 if a == 0 else dir1)[p]
-        u2 = (dir0 if b == 0 else dir1)[q]
-        l1, l2 = math.hypot(*u1), math.hypot(*u2)
-        if max_turn < 180 and l1 > 0 and l2 > 0:
-            turn = math.degrees(math.acos(max(-1.0, min(1.0, -float(u1 @ u2) / (l1 * l2)))))
-            if turn >= max_turn:
+        pairs = []
+        for (p, a), (q, b) in itertools.combinations(group, 2):
+            if p == q:
                 continue
-        link[(p, a)], link[(q, b)] = (q, b), (p, a)
+            u1 = (dir0 if a == 0 else dir1)[p]
+            u2 = (dir0 if b == 0 else dir1)[q]
+            l1, l2 = math.hypot(*u1), math.hypot(*u2)
+            cos = 1.0 if l1 == 0 or l2 == 0 else -float(u1 @ u2) / (l1 * l2)
+            if max_turn < 180 and cos <= math.cos(math.radians(max_turn)):
+                continue
+            ea, eb = sorted((p + a * n, q + b * n))
+            pairs.append((-cos, ea, eb))
+        for _, ea, eb in sorted(pairs):
+            x, y = (ea % n, ea // n), (eb % n, eb // n)
+            if x not in link and y not in link:
+                link[x], link[y] = y, x
     used = [False] * n
     out = []
 

@@ -134,7 +134,7 @@ BAD = {
     "kind_width": lambda: make_style(kind_width={"silhouette": -2.0}),
     "colors": lambda: make_style(colors={"outline": (0, 0, 0)}),
     "taper_min": lambda: make_style(taper_min=2.0),
-    "max_qi": lambda: DRAWINGS["strokes"].values({"max_qi": 0}),
+    "max_qi": lambda: DRAWINGS["strokes"].values({"max_qi": -1}),
     "line_width": lambda: DRAWINGS["strokes"].values({"line_width": -1.0}),
     "crease_angle": lambda: DRAWINGS["strokes"].values({"crease_angle": 200.0}),
     "chain_angle": lambda: DRAWINGS["strokes"].values({"chain_angle": math.nan}),

@@ -152,7 +152,7 @@ def test04_the_plugin(tmp_path):
 
 @pytest.mark.parametrize(
     ("flag", "value", "name"),
-    [("--style", "watercolour", "style"), ("--dash", "0,0", "dash"), ("--max-qi", "0", "max_qi")],
+    [("--style", "watercolour", "style"), ("--dash", "0,0", "dash"), ("--max-qi", "-1", "max_qi")],
 )
 def test05_bad_flags_are_usage_errors(tmp_path, capsys, flag, value, name):
     path = scene(tmp_path)

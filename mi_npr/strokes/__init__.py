@@ -29,9 +29,10 @@ object space, exact, and the image is used for what object space lacks.
    deeper, and drawn dashed they would cover the picture). Outlines of step 2 are visible
    by construction (their hidden parts are not drawn).
 4. *Chaining* (:mod:`~mi_npr.strokes.chain`): pieces of one kind and visibility state joined
-   at shared vertices while the stroke turns less than ``chain_angle``; three or more at a
-   vertex (a T- or Y-junction) end them all; a visibility change ends a stroke, so a line
-   passing behind an occluder ends on the occluder's outline (a T-junction).
+   at shared vertices while the stroke turns less than ``chain_angle``; where three or more
+   meet, the straightest pair runs on and the others end (the bar of a T continues, its stem
+   stops); a visibility change ends a stroke, so a line passing behind an occluder ends on the
+   occluder's outline (a T-junction in the image).
 5. *Per-vertex attributes* (:class:`Stroke`): film position (sub-pixel), world position,
    depth, object and primitive, and ``depth_behind`` (eq. 5.1's neighbour); per stroke its
    kind, QI, ``through_glass`` and ``closed``. :class:`Strokes` holds one image's strokes.

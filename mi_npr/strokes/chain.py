@@ -2,13 +2,13 @@
 
 Each piece has two ends, each at a *node* (a welded mesh vertex, or a point that belongs to this
 piece alone: a visibility change, a cut by the image frame), and a *class*: its edge kind and
-visibility state. At a node, the ends of one class are joined when
-
-- exactly two ends of that class meet there (three or more: a T- or Y-junction of that class,
-  where every stroke of the class ends), and
-- the stroke turns there by less than ``max_turn`` degrees (the angle between the direction it
-  arrives in and the one it leaves in, on the film; a piece of zero length on the film never
-  breaks a chain).
+visibility state. At a node, two ends of one class are joined when the stroke turns there by
+less than ``max_turn`` degrees (the angle between the direction it arrives in and the one it
+leaves in, on the film; a piece of zero length on the film turns by 0 and never breaks a chain).
+Where three or more ends of a class meet (a junction), the straightest pair is joined first,
+then the straightest of the ends left, and so on (ties: the lower end numbers, end ``e`` being
+piece ``e % P``'s end ``e // P``): the bar of a T runs on and its stem ends there, as a
+draughtsman draws it; a corner where every turn is sharper than ``max_turn`` ends them all.
 
 Pieces of different classes never join, so a stroke ends where the kind or the visibility
 changes. Every piece belongs to exactly one chain, once: no edge is drawn twice. A chain that
@@ -42,17 +42,41 @@ def _links(
     new[1:] = (key_node[1:] != key_node[:-1]) | (key_cls[1:] != key_cls[:-1])
     starts = np.flatnonzero(new)
     sizes = np.diff(np.append(starts, len(order)))
-    pair = starts[sizes == 2]
-    e1, e2 = order[pair], order[pair + 1]
+    group = np.repeat(np.arange(len(starts)), sizes)
+    # every pair of ends (i < j in the sorted order) within a group
+    last = np.repeat(starts + sizes, sizes)  # one past the group's end, per sorted position
+    count = last - np.arange(len(order)) - 1
+    i = np.repeat(np.arange(len(order)), count)
+    j = i + 1 + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count))
+    e1, e2 = order[i], order[j]
+    e1, e2 = np.minimum(e1, e2), np.maximum(e1, e2)
+    g = group[i]
+    u1, u2 = ends_dir[e1], ends_dir[e2]
+    l1, l2 = np.hypot(*u1.T), np.hypot(*u2.T)
+    flat = (l1 == 0) | (l2 == 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # arriving along -u1, leaving along u2: cos of the turn = cos angle(-u1, u2)
+        cos = np.where(flat, 1.0, -np.einsum("ij,ij->i", u1, u2) / (l1 * l2))
     ok = e1 % n != e2 % n
     if max_turn < 180:
-        u1, u2 = ends_dir[e1], ends_dir[e2]
-        l1, l2 = np.hypot(*u1.T), np.hypot(*u2.T)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            # arriving along -u1, leaving along u2: turn = angle(-u1, u2)
-            cos = -np.einsum("ij,ij->i", u1, u2) / (l1 * l2)
-        ok &= ~((l1 > 0) & (l2 > 0) & (cos <= math.cos(math.radians(max_turn))))
-    e1, e2 = e1[ok], e2[ok]
+        ok &= flat | (cos > math.cos(math.radians(max_turn)))
+    g, cos, e1, e2 = g[ok], cos[ok], e1[ok], e2[ok]
+    # greedy: per group, the straightest pair of unused ends, one pair per group a round
+    rank = np.lexsort((e2, e1, -cos, g))
+    g, e1, e2 = g[rank], e1[rank], e2[rank]
+    used = np.zeros(2 * n, bool)
+    first1, first2 = [], []
+    while len(g):
+        live = ~used[e1] & ~used[e2]
+        g, e1, e2 = g[live], e1[live], e2[live]
+        if not len(g):
+            break
+        _, at = np.unique(g, return_index=True)  # the first (straightest) left in each group
+        first1.append(e1[at])
+        first2.append(e2[at])
+        used[e1[at]] = used[e2[at]] = True
+    e1 = np.concatenate(first1) if first1 else np.zeros(0, np.int64)
+    e2 = np.concatenate(first2) if first2 else np.zeros(0, np.int64)
     link = np.full(2 * n, -1, np.int64)
     link[e1], link[e2] = e2, e1
     return link
