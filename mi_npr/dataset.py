@@ -17,6 +17,11 @@ radiance 0.3 and one directional key light of irradiance 2.5 falling along
 Mitsuba's ``direct`` integrator; a pinhole camera of 40 degrees horizontal field of view with a
 box filter (each pixel's depth, normal and ids are those of its own samples).
 
+**Normals.** A mesh is shaded with the normals its file carries, or Mitsuba's smooth vertex
+normals where it has none, except an STL (:data:`FACETED`): it has no normals and is faceted by
+definition, so its face normals are used and its sharp edges are creases in the line drawing
+(its corners are welded all the same, so that silhouettes chain across its triangles).
+
 **Beauty.** ``R G B`` (and ``<view>.png``) are the studio's ``direct`` render only when
 ``beauty`` is asked for; by default they are the G-buffer pass's headlight shading
 (:func:`mi_npr.render.render_gbuffer` without an integrator), which costs no render of its own.
@@ -113,6 +118,9 @@ DATASET_PARAMS: tuple[Param, ...] = (
 )
 #: Formats Mitsuba loads itself.
 NATIVE = (".obj", ".ply")
+#: Formats without normals, faceted by definition: shaded with face normals (so that their
+#: sharp edges stay creases: smooth vertex normals would round them off).
+FACETED = (".stl",)
 #: Formats read by ``trimesh`` and written as PLY.
 CONVERTED = (".stl", ".gltf", ".glb")
 #: The dataset's manifest in OUT.
@@ -351,8 +359,10 @@ def scene_xml(mesh: Mesh) -> str:
     kind = "ply" if mesh.source.lower().endswith(".ply") else "obj"
     x, y, z = (_num(-v) for v in mesh.centre)
     name = _xml_text(mesh.source)
+    faceted = Path(mesh.path).suffix.lower() in FACETED
+    normals = '\n        <boolean name="face_normals" value="true"/>' if faceted else ""
     shape = f"""    <shape type="{kind}" id="mesh">
-        <string name="filename" value="{name}"/>
+        <string name="filename" value="{name}"/>{normals}
         <transform name="to_world">
             <translate x="{x}" y="{y}" z="{z}"/>
             <scale value="{_num(1.0 / mesh.radius)}"/>

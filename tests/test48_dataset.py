@@ -431,3 +431,35 @@ def test16_memory_and_kernels_stay_flat_over_many_jobs(tmp_path):
     # a few a mesh (its virtual calls), never one a view: 12 views would make 12
     assert max(new_kernels[3:]) <= 5, new_kernels
     assert len(batch._LAUNCH["views"]) < 12 and len(batch._SCENES) <= batch.SCENE_CACHE
+
+
+def test17_an_stl_keeps_its_creases(tmp_path):
+    """An STL is faceted: shaded with face normals, a box's visible faces have one normal each
+    (axis-aligned: the normalisation only moves and scales it), and the lines drawing has its
+    inner edges (creases), which smooth vertex normals would round off."""
+    trimesh = pytest.importorskip("trimesh")
+    trimesh.Trimesh(*box(SIZE, CENTRE)).export(tmp_path / "cube.stl")
+    rows = D.make_dataset(
+        [tmp_path / "cube.stl"],
+        tmp_path / "o",
+        "sphere:1",
+        width=48,
+        height=48,
+        workers=0,
+        progress=False,
+        drawings=("lines",),
+    )
+    row = rows[0]
+    assert row["status"] == "done"
+    gb = read_exr(tmp_path / "o" / row["files"]["exr"])
+    inside = gb.object_id > 0
+    n = gb.normals[inside]
+    assert inside.sum() > 100 and np.all(np.abs(n).max(axis=1) > 0.999)
+    # ink inside the box's outline: its inner edges (the silhouette alone would leave none)
+    from PIL import Image
+
+    ink = 1 - np.asarray(Image.open(tmp_path / "o" / row["files"]["lines.png"]).convert("L")) / 255
+    from scipy.ndimage import binary_erosion
+
+    core = binary_erosion(inside, iterations=3)
+    assert ink[core].max() > 0.5
