@@ -2,9 +2,11 @@
 
 The thesis pairs image-space contours with object-space information for stylization; here the
 strokes themselves come from object space where the scene has it (:mod:`mi_npr.strokes`): the
-meshes' silhouette, border, crease and material edges, the exact outlines of the other shapes
-(spheres, cylinders...), each visible or hidden by ray casting against the scene (quantitative
-invisibility; glass does not hide), chained into polylines and styled. The styled strokes are
+meshes' silhouette, border, crease, material and intersection edges, the exact outlines of the
+other shapes (spheres, cylinders..., glass ones too), each visible or hidden by ray casting
+against the scene (quantitative invisibility; glass does not hide), and, with
+``raytree_depth``, the ray trees' reflection, refraction and shadow lines; chained into
+polylines and styled. The styled strokes are
 rasterised with anti-aliasing into the ``strokes.V`` layer and drawn over the nested
 integrator's beauty (``R G B``; the untouched beauty stays in ``beauty.R beauty.G beauty.B``).
 ``mi-npr render --strokes`` also writes them as ``<stem>_strokes.svg`` (one Inkscape layer per
@@ -51,8 +53,14 @@ attributes) and ``<stem>_strokes.png`` (ink on paper).
      - A stroke continues through a joint only where it turns by less than this, degrees.
    * - ``max_qi``
      - integer
-     - 8
-     - Most surfaces counted in front of a line (1..64): deeper lines read as ``max_qi``.
+     - 1
+     - Hidden lines behind more surfaces than this are left out (0..64; 0: the visible
+       strokes alone; 1: each object's own back edges and what lies behind one sheet).
+   * - ``raytree_depth``
+     - integer
+     - 0
+     - Levels of ray trees whose reflection, refraction and shadow lines are added as strokes
+       (traced in image space, within half a pixel diagonal); 0: none.
 
 Channels (``aov_names()``, after ``R G B``): ``strokes.V`` (coverage of the styled strokes in
 [0, 1]), the G-buffer's ``Z P.X P.Y P.Z N.X N.Y N.Z object_id.V prim_id.V``, then the untouched
