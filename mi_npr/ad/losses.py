@@ -21,6 +21,14 @@ from ..errors import InputError, ParameterError, as_path, check_input_file, show
 SCALES = (1.0, 2.0, 4.0, 8.0, 16.0)
 
 
+def _float32(value: Any, name: str, expected: str) -> np.ndarray:
+    """``value`` as a float32 array, or a :class:`ParameterError` naming ``name``."""
+    try:
+        return np.asarray(value, np.float32)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} = {shown(value)}: expected {expected}") from None
+
+
 def _flat(image: Any, name: str) -> tuple[Any, tuple[int, int]]:
     """An (H, W) image as a flat ``mi.Float`` (a Dr.Jit tensor keeps its AD graph)."""
     if image is None:
@@ -29,12 +37,7 @@ def _flat(image: Any, name: str) -> tuple[Any, tuple[int, int]]:
         shape = tuple(int(v) for v in image.shape)
         flat = mi.Float(image.array)
     else:
-        try:
-            a = np.asarray(image, np.float32)
-        except (TypeError, ValueError):
-            raise ParameterError(
-                f"{name} = {shown(image)}: expected an (H, W) image (array or Dr.Jit tensor)"
-            ) from None
+        a = _float32(image, name, "an (H, W) image (array or Dr.Jit tensor)")
         shape = a.shape
         flat = mi.Float(np.ascontiguousarray(a).reshape(-1))
     if len(shape) != 2 or min(shape) < 1:
@@ -83,12 +86,7 @@ def blur(image: Any, sigma: float) -> mi.TensorXf:
 
 
 def _target(target: Any, shape: tuple[int, int]) -> np.ndarray:
-    try:
-        t = np.asarray(target, np.float32)
-    except (TypeError, ValueError):
-        raise ParameterError(
-            f"target = {shown(target)}: expected an (H, W) drawing (read_drawing reads a file)"
-        ) from None
+    t = _float32(target, "target", "an (H, W) drawing (read_drawing reads a file)")
     if t.shape != shape:
         raise ParameterError(
             f"the drawing is {t.shape[-1] if t.ndim else '?'}x{t.shape[0] if t.ndim else '?'}, "
