@@ -402,7 +402,7 @@ class Projector:
         ndc = world_to_ndc(cam)
         if ndc is None:
             raise ParameterError(
-                f"strokes: a {cam.kind} camera is not supported (a perspective camera is)"
+                f"strokes: the {cam.kind} camera is not supported (a perspective camera is)"
             )
         self.camera = cam
         self.width, self.height = cam.resolution
