@@ -247,9 +247,10 @@ def test08_max_qi_leaves_out_what_lies_deeper(tmp_path):
     assert DRAWINGS["strokes"].values({})["max_qi"] == 1
 
 
-def _chains_by_walking(node0, node1, cls, dir0, dir1, max_turn):
+def _chains_by_walking(node0, node1, cls, dir0, dir1, max_turn, short):
     """Chaining by hand (the rules of :mod:`mi_npr.strokes.chain`): at each node, join ends of
-    one class in pairs, the straightest first, unless the turn is too sharp; then walk the
+    one class in pairs, the straightest first, unless the turn is too sharp between two pieces
+    of at least ``short`` px; then walk the
     pieces one by one: open chains from the lower end piece's free end, then loops from their
     lowest piece."""
     n = len(cls)
@@ -267,7 +268,8 @@ def _chains_by_walking(node0, node1, cls, dir0, dir1, max_turn):
             u2 = (dir0 if b == 0 else dir1)[q]
             l1, l2 = math.hypot(*u1), math.hypot(*u2)
             cos = 1.0 if l1 == 0 or l2 == 0 else -float(u1 @ u2) / (l1 * l2)
-            if max_turn < 180 and cos <= math.cos(math.radians(max_turn)):
+            sharp = cos <= math.cos(math.radians(max_turn))
+            if max_turn < 180 and min(l1, l2) >= short and sharp:
                 continue
             ea, eb = sorted((p + a * n, q + b * n))
             pairs.append((-cos, ea, eb))
@@ -311,9 +313,9 @@ def test09_chaining_agrees_with_walking_by_hand():
         dir0 = rng.normal(size=(n, 2))
         dir0[rng.random(n) < 0.1] = 0.0  # pieces of no length on the film
         dir1 = -dir0
-        for max_turn in (45.0, 120.0, 180.0):
-            ref = _chains_by_walking(node0, node1, cls, dir0, dir1, max_turn)
-            assert chain_pieces(node0, node1, cls, dir0, dir1, max_turn) == ref
+        for max_turn, short in itertools.product((45.0, 120.0, 180.0), (0.0, 1.0)):
+            ref = _chains_by_walking(node0, node1, cls, dir0, dir1, max_turn, short)
+            assert chain_pieces(node0, node1, cls, dir0, dir1, max_turn, short) == ref
             loops += sum(closed for _, closed in ref)
     assert loops > 10  # closed loops were tested too
 
@@ -339,3 +341,19 @@ def test10_a_glass_sphere_has_its_own_outline(tmp_path):
     assert sorted({s.through_glass for s in balls}) == [False, True]
     # the lens is in front of the ball where they overlap, so its whole outline is drawn
     assert lens[0].closed
+
+
+def test10_sub_pixel_zig_zag_is_one_stroke_a_corner_ends_it():
+    """Pieces shorter than ``SHORT`` px never break a chain by turning (a tessellated
+    silhouette's zig-zag), pieces longer than that do (a corner of the drawing)."""
+    from mi_npr.strokes.chain import SHORT, chain_pieces
+
+    assert SHORT == 1.0
+    for size, expect in ((0.4, 1), (3.0, 10)):
+        # ten pieces, each turning by 120 degrees from the last: a zig-zag along x
+        angles = np.radians(np.where(np.arange(10) % 2 == 0, 60.0, -60.0))
+        d = size * np.stack([np.cos(angles), np.sin(angles)], 1)
+        node0, node1 = np.arange(10), np.arange(1, 11)
+        chains = chain_pieces(node0, node1, np.zeros(10, int), d, -d, 60.0)
+        assert len(chains) == expect, size
+        assert sorted(p for steps, _ in chains for p, _ in steps) == list(range(10))

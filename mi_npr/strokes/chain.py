@@ -4,7 +4,10 @@ Each piece has two ends, each at a *node* (a welded mesh vertex, or a point that
 piece alone: a visibility change, a cut by the image frame), and a *class*: its edge kind and
 visibility state. At a node, two ends of one class are joined when the stroke turns there by
 less than ``max_turn`` degrees (the angle between the direction it arrives in and the one it
-leaves in, on the film; a piece of zero length on the film turns by 0 and never breaks a chain).
+leaves in, on the film). A joint where either piece is shorter than :data:`SHORT` px on the film
+never breaks a chain by turning: on a finely tessellated surface the polygonal silhouette
+zig-zags between sub-pixel edges, and the turns there are the tessellation's, not corners of
+the drawing (a piece of zero length turns by 0).
 Where three or more ends of a class meet (a junction), the straightest pair is joined first,
 then the straightest of the ends left, and so on (ties: the lower end numbers, end ``e`` being
 piece ``e % P``'s end ``e // P``): the bar of a T runs on and its stem ends there, as a
@@ -21,6 +24,9 @@ import math
 
 import numpy as np
 
+#: Pieces shorter than this on the film (pixels) never break a chain by turning.
+SHORT = 1.0
+
 
 def _links(
     node0: np.ndarray,
@@ -29,6 +35,7 @@ def _links(
     dir0: np.ndarray,
     dir1: np.ndarray,
     max_turn: float,
+    short: float = SHORT,
 ) -> np.ndarray:
     """``link`` (2P,): the end joined to each end (-1: none); end ``e`` is piece ``e % P``'s
     end ``e // P``."""
@@ -53,13 +60,12 @@ def _links(
     g = group[i]
     u1, u2 = ends_dir[e1], ends_dir[e2]
     l1, l2 = np.hypot(*u1.T), np.hypot(*u2.T)
-    flat = (l1 == 0) | (l2 == 0)
     with np.errstate(invalid="ignore", divide="ignore"):
         # arriving along -u1, leaving along u2: cos of the turn = cos angle(-u1, u2)
-        cos = np.where(flat, 1.0, -np.einsum("ij,ij->i", u1, u2) / (l1 * l2))
+        cos = np.where((l1 == 0) | (l2 == 0), 1.0, -np.einsum("ij,ij->i", u1, u2) / (l1 * l2))
     ok = e1 % n != e2 % n
     if max_turn < 180:
-        ok &= flat | (cos > math.cos(math.radians(max_turn)))
+        ok &= (l1 < short) | (l2 < short) | (cos > math.cos(math.radians(max_turn)))
     g, cos, e1, e2 = g[ok], cos[ok], e1[ok], e2[ok]
     # greedy: per group, the straightest pair of unused ends, one pair per group a round
     rank = np.lexsort((e2, e1, -cos, g))
@@ -105,14 +111,15 @@ def chain_order(
     dir0: np.ndarray,
     dir1: np.ndarray,
     max_turn: float,
+    short: float = SHORT,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The chains of ``P`` pieces as flat arrays: ``piece`` (P,) in chain order, ``reverse``
     (P,) (walked from its end 1 to its end 0), ``start`` (C + 1,) the offsets of the ``C``
     chains in them, and ``closed`` (C,).
 
     ``node0``, ``node1`` (P,): the nodes of each piece's ends; ``cls`` (P,): its class;
-    ``dir0``, ``dir1`` (P, 2): the film direction of the piece leaving each end (from end 0
-    towards end 1, and back).
+    ``dir0``, ``dir1`` (P, 2): the film vector of the piece leaving each end (from end 0
+    to end 1, and back; its length is the piece's on the film); ``short``: :data:`SHORT`.
 
     Chains are walked in this order: the open ones first, each from the lower-numbered piece
     of its two end pieces, from its free end (end 0 for a lone piece), in the order of that
@@ -125,7 +132,7 @@ def chain_order(
     z = np.zeros(0, np.int64)
     if n == 0:
         return z, z.astype(bool), np.zeros(1, np.int64), z.astype(bool)
-    link = _links(node0, node1, cls, dir0, dir1, max_turn)
+    link = _links(node0, node1, cls, dir0, dir1, max_turn, short)
     state = np.arange(2 * n)
     piece, side = state % n, state // n
     exit_end = piece + (1 - side) * n
@@ -169,11 +176,12 @@ def chain_pieces(
     dir0: np.ndarray,
     dir1: np.ndarray,
     max_turn: float,
+    short: float = SHORT,
 ) -> list[tuple[list[tuple[int, bool]], bool]]:
     """The chains of ``P`` pieces: ``(steps, closed)`` where ``steps`` lists ``(piece,
     reversed)`` in order (``reversed``: walked from its end 1 to its end 0); the arguments and
     the order are :func:`chain_order`'s."""
-    piece, rev, start, closed = chain_order(node0, node1, cls, dir0, dir1, max_turn)
+    piece, rev, start, closed = chain_order(node0, node1, cls, dir0, dir1, max_turn, short)
     return [
         (list(zip(piece[a:b].tolist(), rev[a:b].tolist(), strict=True)), bool(c))
         for a, b, c in zip(start[:-1].tolist(), start[1:].tolist(), closed.tolist(), strict=True)
