@@ -116,3 +116,44 @@ def test05_drawings_from_png_and_svg(tmp_path):
             read_drawing(tmp_path / bad)
     with pytest.raises(InputError, match=r"missing\.png"):
         read_drawing(tmp_path / "missing.png")
+
+
+def _clipped_blur_matrix(length: int, sigma: float) -> np.ndarray:
+    """The 1-D blur as a dense matrix: row p sums w_k x[clip(p + k)], built tap by tap."""
+    r = max(1, int(np.ceil(3.0 * sigma)))
+    k = np.arange(-r, r + 1)
+    w = np.exp(-0.5 * (k / sigma) ** 2)
+    w /= w.sum()
+    m = np.zeros((length, length))
+    for p in range(length):
+        for kk, ww in zip(k, w, strict=True):
+            m[p, min(max(p + kk, 0), length - 1)] += ww
+    return m
+
+
+@pytest.mark.parametrize(
+    ("shape", "sigma"), [((1, 7), 1.0), ((3, 2), 2.0), ((5, 40), 8.0), ((33, 17), 1.3)]
+)
+def test06_blur_backward_is_the_transpose_of_the_clipped_blur(shape, sigma):
+    """The blur's hand-written backward pass (gathers, the taps clipped onto a border pixel
+    summed there) is A^T g for the dense matrix A of the blur, also where the image is shorter
+    than the filter's radius."""
+    h, w = shape
+    rng = np.random.default_rng(11)
+    x = mi.Float(rng.random(h * w).astype(np.float32))
+    g = rng.random((h, w)).astype(np.float32)
+    dr.enable_grad(x)
+    out = blur(mi.TensorXf(x, shape=shape), sigma)
+    dr.backward(dr.sum(out.array * mi.Float(g.ravel())))
+    A, B = _clipped_blur_matrix(h, sigma), _clipped_blur_matrix(w, sigma)
+    ref = A.T @ g.astype(np.float64) @ B
+    np.testing.assert_allclose(np.asarray(dr.grad(x)).reshape(h, w), ref, atol=1e-6)
+    # and forward mode is A dx
+    dx = rng.random((h, w)).astype(np.float32)
+    x2 = mi.Float(np.asarray(dr.detach(x)))
+    dr.enable_grad(x2)
+    dr.set_grad(x2, mi.Float(dx.ravel()))
+    out2 = blur(mi.TensorXf(x2, shape=shape), sigma)
+    dr.forward_to(out2.array)
+    got = np.asarray(dr.grad(out2.array)).reshape(h, w)
+    np.testing.assert_allclose(got, A @ dx.astype(np.float64) @ B.T, atol=1e-6)

@@ -67,22 +67,62 @@ def blur(image: Any, sigma: float) -> mi.TensorXf:
     x, (h, w) = _flat(image, "blur")
     if sigma == 0:
         return mi.TensorXf(x, shape=(h, w))
+    return mi.TensorXf(dr.custom(_Blur, x, h, w, sigma), shape=(h, w))
+
+
+def _blur_pass(x: Any, h: int, w: int, sigma: float, along_x: bool, adjoint: bool) -> mi.Float:
+    """One axis of :func:`blur` on the flat (h, w) image ``x``: ``y[p] = sum_k w_k x[clip(p +
+    k)]``, or with ``adjoint`` its transpose ``x[q] = sum_d W(q, d) y[q + d]`` (``0 <= q + d <
+    L``), ``W(q, d) = w_-d`` inside, and at an end the weights of every tap clipped onto it:
+    ``sum_(k <= -d) w_k`` at ``q = 0``, ``sum_(k >= -d) w_k`` at ``q = L - 1``."""
+    length = w if along_x else h
+    if length == 1:  # every tap clipped onto the one pixel: the identity
+        return mi.Float(x)
     r = max(1, math.ceil(3.0 * sigma))
     taps = np.arange(-r, r + 1)
     weights = np.exp(-0.5 * (taps / sigma) ** 2)
     weights /= weights.sum()
     idx = dr.arange(mi.UInt32, h * w)
     px, py = mi.Int32(idx % w), mi.Int32(idx // w)
-    for along_x in (True, False):
-        acc = mi.Float(0.0)
-        for k, wt in zip(taps, weights, strict=True):
-            if along_x:
-                q = py * w + dr.clip(px + int(k), 0, w - 1)
-            else:
-                q = dr.clip(py + int(k), 0, h - 1) * w + px
+    pos = px if along_x else py
+    acc = mi.Float(0.0)
+    for k, wt in zip(taps, weights, strict=True):
+        k = int(k)
+        at = dr.clip(pos + k, 0, length - 1)
+        q = py * w + at if along_x else at * w + px
+        if not adjoint:
             acc += float(wt) * dr.gather(mi.Float, x, mi.UInt32(q))
-        x = acc
-    return mi.TensorXf(x, shape=(h, w))
+            continue
+        d = k  # the output at q + d read this pixel through tap -d
+        ok = (pos + d >= 0) & (pos + d < length)
+        first, last = float(weights[: r - d + 1].sum()), float(weights[r - d :].sum())
+        wq = dr.select(pos == 0, first, dr.select(pos == length - 1, last, float(weights[r - d])))
+        acc += dr.select(ok, wq * dr.gather(mi.Float, x, mi.UInt32(q), ok), 0.0)
+    return acc
+
+
+class _Blur(dr.CustomOp):
+    """:func:`blur` with a backward pass of gathers (its transpose, :func:`_blur_pass`): Dr.Jit
+    would transpose each of the taps' gathers into an atomic scatter-add."""
+
+    def eval(self, x: Any, h: int, w: int, sigma: float) -> mi.Float:
+        self.shape = (h, w, sigma)
+        return self._apply(x, False)
+
+    def _apply(self, x: Any, adjoint: bool) -> mi.Float:
+        for along_x in (False, True) if adjoint else (True, False):
+            x = _blur_pass(x, *self.shape, along_x, adjoint)
+            dr.eval(x)
+        return x
+
+    def forward(self) -> None:
+        self.set_grad_out(self._apply(self.grad_in("x"), False))
+
+    def backward(self) -> None:
+        self.set_grad_in("x", self._apply(self.grad_out(), True))
+
+    def name(self) -> str:
+        return "blur"
 
 
 def _target(target: Any, shape: tuple[int, int]) -> np.ndarray:

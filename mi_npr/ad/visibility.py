@@ -115,6 +115,21 @@ class Pinhole:
             mi.Float(fov),
         )
 
+    def spread(self, width: int) -> Pinhole:
+        """This camera with every value broadcast to ``width`` lanes (the sample grid), for the
+        gradients of the camera's scalars to be summed over the grid in one pass
+        (:class:`_Spread`)."""
+        parts = [mi.Vector3f(v) for v in (self.origin, self.forward, self.left, self.up)]
+        comps = [c for v in parts for c in (v.x, v.y, v.z)] + [mi.Float(self.fov)]
+        w = dr.custom(_Spread, comps, width)
+        return Pinhole(
+            mi.Point3f(*w[0:3]),
+            mi.Vector3f(*w[3:6]),
+            mi.Vector3f(*w[6:9]),
+            mi.Vector3f(*w[9:12]),
+            w[12],
+        )
+
     def _tan(self, size: tuple[int, int]) -> tuple[Any, Any]:
         tx = dr.tan(mi.Float(self.fov) * (math.pi / 360.0))
         return tx, tx * (size[1] / size[0])
@@ -139,6 +154,30 @@ class Pinhole:
         x = 0.5 * w * (1.0 - dr.dot(q, self.left) / (z * tx))
         y = 0.5 * h * (1.0 - dr.dot(q, self.up) / (z * ty))
         return x, y
+
+
+class _Spread(dr.CustomOp):
+    """Values broadcast to ``width`` lanes. Dr.Jit's own broadcast reduces the gradient of each
+    edge from a scalar to the grid on its own, evaluating the grid's whole adjoint expression
+    once per edge; here the adjoints of all outputs are evaluated together and then summed."""
+
+    def eval(self, values: list[Any], width: int) -> list[Any]:
+        self.width = width
+        self.narrow = [dr.width(v) == 1 for v in values]
+        return [v + dr.zeros(mi.Float, width) for v in values]
+
+    def forward(self) -> None:
+        g = self.grad_in("values")
+        self.set_grad_out([v + dr.zeros(mi.Float, self.width) for v in g])
+
+    def backward(self) -> None:
+        g = self.grad_out()
+        dr.eval(g)
+        sums = [dr.sum(v) if k else v for v, k in zip(g, self.narrow, strict=True)]
+        self.set_grad_in("values", sums)
+
+    def name(self) -> str:
+        return "camera spread"
 
 
 def _id_features(oid: Any) -> list[Any]:
@@ -295,24 +334,28 @@ class _Flux(dr.CustomOp):
     def backward(self) -> None:
         g = self.grad_out()
         lk = self.links
-        gx, gy = mi.Float(0.0), mi.Float(0.0)
-        idx = dr.arange(mi.Int32, lk.rows * lk.cols)
-        col, row = idx % lk.cols, idx // lk.cols
+        # Per direction, the adjoint of the link's velocity: at this sample where it is the
+        # front one, else at the neighbour (read there by a gather below). All four in one
+        # kernel, which loads this sample's data once.
+        own, other = [mi.Float(0.0), mi.Float(0.0)], []
         for dx, dy in DIRECTIONS:
             _, front, m, jumps = lk.direction(dx, dy)
             G = m * (dx + dy) * sum(j * gc for j, gc in zip(jumps, g, strict=True))
-            own = dr.select(front, G, 0.0)  # this sample is the front: its own velocity
-            other = dr.select(front, 0.0, -G)  # the neighbour is: its velocity, read there
-            dr.eval(own, other)
+            own[0 if dx else 1] += dr.select(front, G, 0.0)
+            other.append(dr.select(front, 0.0, -G))
+        dr.eval(own, other)
+        idx = dr.arange(mi.Int32, lk.rows * lk.cols)
+        col, row = idx % lk.cols, idx // lk.cols
+        gx, gy = own
+        for (dx, dy), o in zip(DIRECTIONS, other, strict=True):
             # the samples whose link in this direction ends here
             sx, sy = col - dx, row - dy
             ok = (sx >= 0) & (sx < lk.cols) & (sy >= 0) & (sy < lk.rows)
             src = mi.UInt32(dr.clip(sy, 0, lk.rows - 1) * lk.cols + dr.clip(sx, 0, lk.cols - 1))
-            total = own + dr.gather(mi.Float, other, src, ok)
             if dx:
-                gx += total
+                gx += dr.gather(mi.Float, o, src, ok)
             else:
-                gy += total
+                gy += dr.gather(mi.Float, o, src, ok)
         self.set_grad_in("ux", gx)
         self.set_grad_in("uy", gy)
 
@@ -393,6 +436,7 @@ def soft_lines(
     w, h = (int(v) for v in size)
     R = max(1, math.ceil(3.0 * sigma))
     cols, rows = (w + 2 * R) * n, (h + 2 * R) * n
+    cam = cam.spread(rows * cols)
     idx = dr.arange(mi.UInt32, rows * cols)
     x = (mi.Float(idx % cols) + 0.5) / n - R
     y = (mi.Float(idx // cols) + 0.5) / n - R
@@ -421,7 +465,9 @@ def soft_lines(
     px, py = cam.project(dr.select(valid, moving.p, cam.origin + cam.forward), (w, h))
     ux, uy = px - dr.detach(px), py - dr.detach(py)  # 0, with the velocity as derivative
     fd = [dr.detach(f) for f in feats]
-    dr.eval(feats, ux, uy, oid, valid)  # smaller kernels compile much faster than one
+    # One kernel for everything the links read (smaller kernels compile much faster than one
+    # with the filter; a value left out would be recomputed, intersection and all, on its own).
+    dr.eval(feats, ux, uy, oid, valid, z, nrm)
     zd, nd = dr.detach(z), dr.detach(nrm)
 
     links = _Links(fd, oid, valid, zd, nd, rows, cols, 0.05 * depth_weight, n)
