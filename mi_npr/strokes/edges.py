@@ -82,6 +82,10 @@ class FeatureEdges:
     def __len__(self) -> int:
         return len(self.a)
 
+    def take(self, rows: slice | np.ndarray) -> FeatureEdges:
+        """The edges ``rows`` (a slice or an index array)."""
+        return FeatureEdges(*(getattr(self, k)[rows] for k in self.__dataclass_fields__))
+
     @classmethod
     def empty(cls) -> FeatureEdges:
         z3 = np.zeros((0, 3))
@@ -100,8 +104,9 @@ class FeatureEdges:
 
 def mesh_arrays(table: ObjectTable) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every mesh of the object table as one triangle soup: vertex positions (V, 3) float64,
-    faces (F, 3) int64 into them, and each face's object id and primitive index (F,), the
-    faces of one object contiguous, objects in increasing id."""
+    faces (F, 3) into them (int32; int64 past 2**31 vertices), and each face's object id and
+    primitive index (F,) int32, the faces of one object contiguous, objects in increasing
+    id."""
     vs, fs, oids, prims = [], [], [], []
     base = 0
     for oid in sorted(table.shapes):
@@ -115,13 +120,16 @@ def mesh_arrays(table: ObjectTable) -> tuple[np.ndarray, np.ndarray, np.ndarray,
             continue
         vs.append(v)
         fs.append(f + base)
-        oids.append(np.full(len(f), oid, np.int64))
-        prims.append(np.arange(len(f), dtype=np.int64))
+        oids.append(np.full(len(f), oid, np.int32))
+        prims.append(np.arange(len(f), dtype=np.int32))
         base += len(v)
     if not fs:
-        z = np.zeros(0, np.int64)
-        return np.zeros((0, 3)), np.zeros((0, 3), np.int64), z, z
-    return np.concatenate(vs), np.concatenate(fs), np.concatenate(oids), np.concatenate(prims)
+        z = np.zeros(0, np.int32)
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int32), z, z
+    faces = np.concatenate(fs)
+    if base < 2**31:  # half the memory of the largest array
+        faces = faces.astype(np.int32)
+    return np.concatenate(vs), faces, np.concatenate(oids), np.concatenate(prims)
 
 
 def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
@@ -424,7 +432,10 @@ class Projector:
 
     def film(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Film positions (..., 2) and depths (...) of world points ``p`` (..., 3)."""
-        h = self.clip(p)
+        return self.film_of(self.clip(p))
+
+    def film_of(self, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Film positions (..., 2) and depths (...) of homogeneous points ``h`` (..., 4)."""
         w = h[..., 3]
         with np.errstate(divide="ignore", invalid="ignore"):
             xy = np.stack([h[..., 0] / w * self.width, h[..., 1] / w * self.height], -1)
@@ -434,9 +445,14 @@ class Projector:
         """The parameter interval ``[lo, hi]`` of each segment ``a + s (b - a)`` (E, 3) inside
         the view frustum (in front of the near plane, inside the image frame); ``lo > hi`` where
         none of it is."""
-        ha, hb = self.clip(a), self.clip(b)
-        lo = np.zeros(len(a))
-        hi = np.ones(len(a))
+        return self.clip_homogeneous(self.clip(a), self.clip(b))
+
+    def clip_homogeneous(self, ha: np.ndarray, hb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`clip_segments` of segments given by their ends' homogeneous coordinates
+        ``ha``, ``hb`` (E, 4) (:meth:`clip`; the map is linear, so the point of parameter ``s``
+        is ``ha + s (hb - ha)``)."""
+        lo = np.zeros(len(ha))
+        hi = np.ones(len(ha))
         x0, y0, w0 = ha[:, 0], ha[:, 1], ha[:, 3]
         x1, y1, w1 = hb[:, 0], hb[:, 1], hb[:, 3]
         for f0, f1 in (

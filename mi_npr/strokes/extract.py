@@ -60,8 +60,104 @@ def _film_param_to_3d(u: np.ndarray, wa: np.ndarray, wb: np.ndarray) -> np.ndarr
     return u * wa / ((1.0 - u) * wb + u * wa)
 
 
+#: Feature edges whose samples are cast at once (bounds the memory of the samples).
+EDGE_CHUNK = 1 << 17
+
+
+def _split(
+    scene: mi.Scene,
+    table: ObjectTable,
+    proj: Projector,
+    edges: FeatureEdges,
+    max_qi: int,
+    fresh: int,
+) -> tuple[dict[str, np.ndarray], int]:
+    """The visibility-split pieces of ``edges`` (:class:`_Pieces`'s fields) and how many
+    pieces there were before those behind more than ``max_qi`` surfaces were dropped; the
+    nodes that are not welded vertices are numbered from ``fresh`` on (and ``-1 - n`` for a
+    node ``n`` on the image frame)."""
+    ha, hb = proj.clip(edges.a), proj.clip(edges.b)
+    lo, hi = proj.clip_homogeneous(ha, hb)
+    e = np.flatnonzero(hi - lo > 1e-12)
+    a, b, ha, hb = edges.a[e], edges.b[e], ha[e], hb[e]
+    lo_e, hi_e = lo[e, None], hi[e, None]
+    A = a + lo_e * (b - a)
+    B = a + hi_e * (b - a)
+    # the clipped ends' film positions from the ends' homogeneous coordinates (linear)
+    xa, wa = proj.film_of(ha + lo_e * (hb - ha))
+    xb, wb = proj.film_of(ha + hi_e * (hb - ha))
+    del ha, hb
+    length = np.hypot(*(xb - xa).T)
+    count = np.maximum(2, np.ceil(length / SPACING).astype(np.int64) + 1)
+    owner = np.repeat(np.arange(len(e)), count)
+    first = np.concatenate([[0], np.cumsum(count)[:-1]])
+    k = np.arange(len(owner)) - first[owner]
+    u = k / (count[owner] - 1)
+
+    # counted to max_qi + 1: the pieces beyond max_qi are told apart, then dropped
+    rays = SegmentVisibility(scene, table, proj.origin, A, B, wa, wb, edges.faces[e], max_qi + 1)
+
+    def state_at(idx: np.ndarray, uu: np.ndarray) -> np.ndarray:
+        qi, glass = rays.at(idx, uu)
+        return qi.astype(np.int64) * 2 + glass
+
+    state = state_at(owner, u)
+    change = np.flatnonzero((owner[1:] == owner[:-1]) & (state[1:] != state[:-1]))
+    ulo, uhi = u[change], u[change + 1]
+    slo = state[change]
+    idx = owner[change]
+    ulo, uhi = rays.bisect(idx, ulo, uhi, slo, ITERATIONS)
+    split_u = 0.5 * (ulo + uhi)
+    # pieces: per edge, boundaries 0, changes..., 1 (the changes of one edge come in order
+    # along it), each with the state of the samples after its start
+    pe = np.concatenate([np.arange(len(e)), idx])
+    u0 = np.concatenate([np.zeros(len(e)), split_u])
+    st = np.concatenate([state[first], state[change + 1]]) if len(e) else np.zeros(0, int)
+    order = np.lexsort((u0, pe))
+    pe, u0, st = pe[order], u0[order], st[order]
+    u1 = np.append(u0[1:], 1.0)
+    last = np.append(pe[1:] != pe[:-1], True)
+    u1[last] = 1.0
+    # a sliver shorter than MIN_PIECE px takes its neighbour's state: at a mesh vertex the
+    # surfaces around the vertex lie within the guard band of the rays to the edge's end
+    short = (u1 - u0) * length[pe] < MIN_PIECE
+    first_of = np.append(True, pe[1:] != pe[:-1])
+    alone = first_of & last
+    nxt = np.append(st[1:], -1)
+    prv = np.append(-1, st[:-1])
+    st = np.where(short & ~alone, np.where(first_of, nxt, prv), st)
+    # runs of one state along one edge are one piece
+    head = first_of | (st != np.append(-1, st[:-1]))
+    g = np.flatnonzero(head)
+    pe, u0, st = pe[g], u0[g], st[g]
+    u1 = np.append(u0[1:], 1.0)
+    last = np.append(pe[1:] != pe[:-1], True)
+    u1[last] = 1.0
+    first_of = np.append(True, pe[1:] != pe[:-1])
+    # nodes: welded vertices at unclipped ends, fresh ids elsewhere; the two pieces of a
+    # change share a node (their states differ: a point where two strokes meet, unchained)
+    node0 = fresh + np.arange(len(pe))
+    node1 = np.append(node0[1:], 0)
+    clipped = -1 - node0  # an end on the image frame: its own node
+    node0 = np.where(first_of & (lo[e][pe] == 0), edges.va[e][pe], node0)
+    node1 = np.where(last, np.where(hi[e][pe] == 1, edges.vb[e][pe], clipped), node1)
+    count = len(pe)
+    shown = st // 2 <= max_qi
+    pe, u0, u1, st, node0, node1 = (x[shown] for x in (pe, u0, u1, st, node0, node1))
+    s0 = _film_param_to_3d(u0, wa[pe], wb[pe])
+    s1 = _film_param_to_3d(u1, wa[pe], wb[pe])
+    p0 = A[pe] + s0[:, None] * (B[pe] - A[pe])
+    p1 = A[pe] + s1[:, None] * (B[pe] - A[pe])
+    xy0, d0 = proj.film(p0)
+    xy1, d1 = proj.film(p1)
+    out = dict(state=st, p0=p0, p1=p1, xy0=xy0, d0=d0, xy1=xy1, d1=d1, node0=node0, node1=node1)
+    out.update(kind=edges.kind[e][pe], object_id=edges.object_id[e][pe], prim=edges.prim[e][pe])
+    return out, count
+
+
 class _Pieces:
-    """Visibility-split pieces of the clipped feature edges (arrays of length P)."""
+    """Visibility-split pieces of the clipped feature edges (arrays of length P), the edges
+    taken :data:`EDGE_CHUNK` at a time."""
 
     def __init__(
         self,
@@ -71,84 +167,16 @@ class _Pieces:
         edges: FeatureEdges,
         max_qi: int,
     ) -> None:
-        lo, hi = proj.clip_segments(edges.a, edges.b)
-        keep = hi - lo > 1e-12
-        e = np.flatnonzero(keep)
-        a, b = edges.a[e], edges.b[e]
-        A = a + lo[e, None] * (b - a)
-        B = a + hi[e, None] * (b - a)
-        xa, wa = proj.film(A)
-        xb, wb = proj.film(B)
-        length = np.hypot(*(xb - xa).T)
-        count = np.maximum(2, np.ceil(length / SPACING).astype(np.int64) + 1)
-        owner = np.repeat(np.arange(len(e)), count)
-        first = np.concatenate([[0], np.cumsum(count)[:-1]])
-        k = np.arange(len(owner)) - first[owner]
-        u = k / (count[owner] - 1)
-
-        # counted to max_qi + 1: the pieces beyond max_qi are told apart, then dropped
-        rays = SegmentVisibility(
-            scene, table, proj.origin, A, B, wa, wb, edges.faces[e], max_qi + 1
-        )
-
-        def state_at(idx: np.ndarray, uu: np.ndarray) -> np.ndarray:
-            qi, glass = rays.at(idx, uu)
-            return qi.astype(np.int64) * 2 + glass
-
-        state = state_at(owner, u)
-        change = np.flatnonzero((owner[1:] == owner[:-1]) & (state[1:] != state[:-1]))
-        ulo, uhi = u[change], u[change + 1]
-        slo = state[change]
-        idx = owner[change]
-        ulo, uhi = rays.bisect(idx, ulo, uhi, slo, ITERATIONS)
-        split_u = 0.5 * (ulo + uhi)
-        # pieces: per edge, boundaries 0, changes..., 1 (the changes of one edge come in order
-        # along it), each with the state of the samples after its start
-        pe = np.concatenate([np.arange(len(e)), idx])
-        u0 = np.concatenate([np.zeros(len(e)), split_u])
-        st = np.concatenate([state[first], state[change + 1]]) if len(e) else np.zeros(0, int)
-        order = np.lexsort((u0, pe))
-        pe, u0, st = pe[order], u0[order], st[order]
-        u1 = np.append(u0[1:], 1.0)
-        last = np.append(pe[1:] != pe[:-1], True)
-        u1[last] = 1.0
-        # a sliver shorter than MIN_PIECE px takes its neighbour's state: at a mesh vertex the
-        # surfaces around the vertex lie within the guard band of the rays to the edge's end
-        short = (u1 - u0) * length[pe] < MIN_PIECE
-        first_of = np.append(True, pe[1:] != pe[:-1])
-        alone = first_of & last
-        nxt = np.append(st[1:], -1)
-        prv = np.append(-1, st[:-1])
-        st = np.where(short & ~alone, np.where(first_of, nxt, prv), st)
-        # runs of one state along one edge are one piece
-        head = first_of | (st != np.append(-1, st[:-1]))
-        g = np.flatnonzero(head)
-        pe, u0, st = pe[g], u0[g], st[g]
-        u1 = np.append(u0[1:], 1.0)
-        last = np.append(pe[1:] != pe[:-1], True)
-        u1[last] = 1.0
-        first_of = np.append(True, pe[1:] != pe[:-1])
-        # nodes: welded vertices at unclipped ends, fresh ids elsewhere; the two pieces of a
-        # change share a node (their states differ: a point where two strokes meet, unchained)
         fresh = int(max(edges.va.max(initial=-1), edges.vb.max(initial=-1))) + 1
-        node0 = fresh + np.arange(len(pe))
-        node1 = np.append(node0[1:], 0)
-        node0 = np.where(first_of & (lo[e][pe] == 0), edges.va[e][pe], node0)
-        clipped = -1 - np.arange(len(pe))  # an end on the image frame: its own node
-        node1 = np.where(last, np.where(hi[e][pe] == 1, edges.vb[e][pe], clipped), node1)
-        shown = st // 2 <= max_qi
-        pe, u0, u1, st, node0, node1 = (x[shown] for x in (pe, u0, u1, st, node0, node1))
-        self.state = st
-        s0 = _film_param_to_3d(u0, wa[pe], wb[pe])
-        s1 = _film_param_to_3d(u1, wa[pe], wb[pe])
-        self.p0 = A[pe] + s0[:, None] * (B[pe] - A[pe])
-        self.p1 = A[pe] + s1[:, None] * (B[pe] - A[pe])
-        self.xy0, self.d0 = proj.film(self.p0)
-        self.xy1, self.d1 = proj.film(self.p1)
-        self.node0, self.node1 = node0, node1
-        self.kind = edges.kind[e][pe]
-        self.object_id = edges.object_id[e][pe]
-        self.prim = edges.prim[e][pe]
+        parts = []
+        for c in range(0, max(len(edges), 1), EDGE_CHUNK):
+            part, count = _split(
+                scene, table, proj, edges.take(slice(c, c + EDGE_CHUNK)), max_qi, fresh
+            )
+            parts.append(part)
+            fresh += count
+        for key in parts[0]:
+            setattr(self, key, np.concatenate([p[key] for p in parts]))
 
     def __len__(self) -> int:
         return len(self.state)
@@ -195,17 +223,18 @@ def _mesh_strokes(pieces: _Pieces, chain_angle: float) -> list[Stroke]:
     kinds = pieces.kind[head].tolist()
     ring = (closed & (size >= 3)).tolist()
     bounds = np.append(first, total).tolist()
+    oid, prim = oid.astype(np.uint32, copy=False), prim.astype(np.uint32, copy=False)
     return [
-        Stroke(
-            kind=KINDS[kinds[c]],
-            points=xy[a:b],
-            position=pos[a:b],
-            depth=dep[a:b],
-            object_id=oid[a:b],
-            prim=prim[a:b],
-            qi=st[c] // 2,
-            through_glass=bool(st[c] % 2),
-            closed=ring[c],
+        Stroke.trusted(
+            KINDS[kinds[c]],
+            xy[a:b],
+            pos[a:b],
+            dep[a:b],
+            oid[a:b],
+            prim[a:b],
+            st[c] // 2,
+            bool(st[c] % 2),
+            ring[c],
         )
         for c, (a, b) in enumerate(itertools.pairwise(bounds))
     ]

@@ -25,7 +25,7 @@ import numpy as np
 #: Most grid cells per axis over the overlap of two meshes.
 GRID = 64
 #: Candidate pairs tested at once (memory bound).
-CHUNK = 1 << 18
+CHUNK = 1 << 16
 
 
 def _candidates(
@@ -135,6 +135,18 @@ def segments(t1: np.ndarray, t2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     return ok, p, q
 
 
+def _boxes(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each triangle's bounding box (F, 3) in single precision, rounded outwards (so it holds
+    the double-precision box), a block of faces at a time (bounded temporaries)."""
+    lo = np.empty((len(f), 3), np.float32)
+    hi = np.empty((len(f), 3), np.float32)
+    for c in range(0, len(f), CHUNK):
+        t = v[f[c : c + CHUNK]]  # (n, 3 corners, 3)
+        lo[c : c + CHUNK] = np.nextafter(t.min(1).astype(np.float32), np.float32(-np.inf))
+        hi[c : c + CHUNK] = np.nextafter(t.max(1).astype(np.float32), np.float32(np.inf))
+    return lo, hi
+
+
 def intersections(
     v: np.ndarray, f: np.ndarray, face_oid: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -146,10 +158,7 @@ def intersections(
     empty = np.zeros((0, 3)), np.zeros((0, 3)), z, z
     if len(f) == 0:
         return empty
-    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    tlo = np.minimum(np.minimum(p0, p1), p2)
-    thi = np.maximum(np.maximum(p0, p1), p2)
-    del p0, p1, p2
+    tlo, thi = _boxes(v, f)
     head = np.flatnonzero(np.append(True, face_oid[1:] != face_oid[:-1]))
     stop = np.append(head[1:], len(f))
     olo = np.minimum.reduceat(tlo, head)

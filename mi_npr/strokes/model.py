@@ -64,6 +64,36 @@ class Stroke:
         if self.depth_behind is not None:
             self.depth_behind = np.asarray(self.depth_behind, np.float64).reshape(n)
 
+    @classmethod
+    def trusted(
+        cls,
+        kind: str,
+        points: np.ndarray,
+        position: np.ndarray,
+        depth: np.ndarray,
+        object_id: np.ndarray,
+        prim: np.ndarray,
+        qi: int,
+        through_glass: bool,
+        closed: bool,
+    ) -> Stroke:
+        """A stroke of arrays that already have the dtypes and shapes of the fields (the
+        extraction's own, made by the thousand): built without the checks."""
+        s = object.__new__(cls)
+        s.__dict__.update(
+            kind=kind,
+            points=points,
+            position=position,
+            depth=depth,
+            object_id=object_id,
+            prim=prim,
+            qi=qi,
+            through_glass=through_glass,
+            closed=closed,
+            depth_behind=None,
+        )
+        return s
+
     def __len__(self) -> int:
         return len(self.points)
 

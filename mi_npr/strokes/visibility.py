@@ -36,6 +36,8 @@ from ..scene import ObjectTable
 EPSILON = 1e-4
 #: Most glass or null surfaces one ray passes through.
 MAX_PASSES = 8
+#: Rays cast in one launch (the loop's state per ray is ~100 bytes: memory bound).
+RAYS = 1 << 19
 
 
 def jit_array(kind: type, a: np.ndarray) -> object:
@@ -175,6 +177,12 @@ class SegmentVisibility:
         points in single, as :meth:`at`."""
         if len(idx) == 0:
             return np.asarray(ulo, np.float64), np.asarray(uhi, np.float64)
+        if len(idx) > RAYS:
+            parts = [
+                self.bisect(*(x[k : k + RAYS] for x in (idx, ulo, uhi, state)), iterations)
+                for k in range(0, len(idx), RAYS)
+            ]
+            return np.concatenate([a for a, _ in parts]), np.concatenate([b for _, b in parts])
         i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
         lo = jit_array(mi.Float64, np.asarray(ulo, np.float64))
         hi = jit_array(mi.Float64, np.asarray(uhi, np.float64))
@@ -202,6 +210,9 @@ class SegmentVisibility:
         n = len(idx)
         if n == 0:
             return np.zeros(0, np.int32), np.zeros(0, bool)
+        if n > RAYS:
+            parts = [self.at(idx[k : k + RAYS], u[k : k + RAYS]) for k in range(0, n, RAYS)]
+            return np.concatenate([q for q, _ in parts]), np.concatenate([g for _, g in parts])
         i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
         uu = jit_array(mi.Float, np.asarray(u, np.float32))
         o, p, d, dist, own = self._points(i, uu)
