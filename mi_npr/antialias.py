@@ -104,9 +104,10 @@ MAX_AA = 8
 ACROSS = ((0, 1), (1, 0))
 
 #: Most sub-pixels of the supersampled film traced and drawn at once; a larger film is done in
-#: strips of rows (:func:`antialiased_lines`). About 4 M: a 512 x 512 film at ``n = 3`` is
-#: drawn whole, a 4K one (75 M sub-pixels) in some 20 strips.
-STRIP_SAMPLES = 1 << 22
+#: strips of rows (:func:`antialiased_lines`). About 1.5 M, some 100 bytes each: a 384 x 384
+#: film at ``n = 3`` is drawn whole, a 4K one (75 M sub-pixels) in some 55 strips, holding less
+#: than its own G-buffer pass does.
+STRIP_SAMPLES = 3 << 19
 
 
 def aa_factor(v: Any) -> str | None:
