@@ -72,6 +72,8 @@ of two).
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from typing import Any
 
 import drjit as dr
@@ -86,7 +88,8 @@ from .gbuffer import GBuffer
 from .kernels import LINES_PARAMS, lines
 from .kernels._stencil import Grid
 from .kernels.chain import fade
-from .kernels.ink import MAX_WIDTH
+from .kernels.depth_lines import finite_range
+from .kernels.ink import DENSITY_WINDOW, MAX_WIDTH
 from .params import check_values
 from .raycast import film_size, require_jit
 from .render import grid_channels
@@ -99,6 +102,12 @@ MAX_AA = 8
 #: The directions (dy, dx) of a line's cross-section through a pixel, its row and its column:
 #: the 3 pixels ``p - d, p, p + d`` (:func:`full_ink_filter`).
 ACROSS = ((0, 1), (1, 0))
+
+#: Most sub-pixels of the supersampled film traced and drawn at once; a larger film is done in
+#: strips of rows (:func:`antialiased_lines`). About 1.5 M, some 100 bytes each: a 384 x 384
+#: film at ``n = 3`` is drawn whole, a 4K one (75 M sub-pixels) in some 55 strips, holding less
+#: than its own G-buffer pass does.
+STRIP_SAMPLES = 3 << 19
 
 
 def aa_factor(v: Any) -> str | None:
@@ -130,17 +139,21 @@ def check_aa_width(width: float, n: int, who: str = "") -> None:
         )
 
 
-def supersampled_gbuffer(scene: mi.Scene, sensor: mi.Sensor, n: int) -> GBuffer:
+def supersampled_gbuffer(
+    scene: mi.Scene, sensor: mi.Sensor, n: int, rows: tuple[int, int] | None = None
+) -> GBuffer:
     """The G-buffer layers ``Z P N object_id prim_id`` of ``n x n`` rays per pixel, laid out as
     an ``(n H, n W)`` image (the pixel-centre G-buffer of a film ``n`` times larger, seams closed
-    as in :mod:`mi_npr.render`)."""
+    as in :mod:`mi_npr.render`); ``rows = (r0, r1)``: the film's rows ``r0 .. r1 - 1`` only, an
+    ``(n (r1 - r0), n W)`` strip (seams closed against the strip alone)."""
     require_jit("line_aa")
     w, h = film_size(sensor)
-    W, H = w * n, h * n
+    r0, r1 = (0, h) if rows is None else rows
+    W, H = w * n, (r1 - r0) * n
     with RENDER_LOCK:
         table = object_table(scene)
         # (j + 0.5) / n film pixels: the centre of sub-pixel j of the n-times-larger film.
-        out = grid_channels(scene, sensor, table, shade=False, n=n)
+        out = grid_channels(scene, sensor, table, shade=False, n=n, rows=(r0 * n, r1 * n))
     TF, TU = mi.TensorXf, mi.TensorXu
     layers = {
         k: (TU if isinstance(out[k], mi.UInt32) else TF)(out[k], shape=(H, W))
@@ -217,29 +230,112 @@ def _mapped(gb: GBuffer, ids: Any) -> GBuffer:
     return gb.with_layers({L.OBJECT_ID: ids.apply(gb[L.OBJECT_ID], gb[L.PRIM_ID])})
 
 
+def chain_reach(params: Mapping[str, Any]) -> int:
+    """How far (pixels) the chain of :func:`mi_npr.kernels.lines` with ``params`` reads
+    around a pixel, at most: each selective dilation its window's half, eq. 5.1 and eq. 5.2 one
+    each (the edges one), each of up to two ``max_density`` thinnings half the density window,
+    ``line_width`` its disc's radius. A pixel farther than this from the border of a part of
+    the image gets the same line from the part as from the whole image.
+
+    >>> chain_reach({}), chain_reach({"dilation_iterations": 2, "line_width": 4.0})
+    (3, 6)
+    """
+    p = check_values("lines", LINES_PARAMS, params)
+    reach = p["dilation_iterations"] * (p["dilation_size"] // 2) + 2
+    if p["max_density"] < 1.0:
+        reach += 2 * (DENSITY_WINDOW // 2)
+    return reach + max(math.ceil((p["line_width"] - 1.0) * 0.5), 0)
+
+
+def strips(h: int, core: int, halo: int) -> list[tuple[int, int, int, int]]:
+    """The strips of an ``h``-row film: ``(r0, r1, s0, s1)``, the rows ``r0 .. r1 - 1`` of
+    each (``core`` rows, the last fewer) computed on the rows ``s0 .. s1 - 1`` around them,
+    ``halo`` more on every side that is not the film's border; every window has the same
+    height (``core + 2 halo``, at most ``h``), so that the kernels compile once.
+
+    >>> strips(10, 4, 1)
+    [(0, 4, 0, 6), (4, 8, 3, 9), (8, 10, 4, 10)]
+    """
+    height = min(h, core + 2 * halo)
+    out = []
+    for r0 in range(0, h, core):
+        s0 = min(max(r0 - halo, 0), h - height)
+        out.append((r0, min(r0 + core, h), s0, s0 + height))
+    return out
+
+
+def _rows(a: Any, first: int, count: int, width: int) -> Any:
+    """Rows ``first .. first + count - 1`` of a flat row-major image ``width`` wide."""
+    return dr.gather(type(a), a, dr.arange(mi.UInt32, count * width) + first * width)
+
+
 def antialiased_lines(
-    scene: mi.Scene, sensor: mi.Sensor, gb: GBuffer, n: int, ids: Any = None, **params: Any
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    gb: GBuffer,
+    n: int,
+    ids: Any = None,
+    *,
+    strip_samples: int = STRIP_SAMPLES,
+    **params: Any,
 ) -> Any:
     """The ``lines`` layer (an (H, W) tensor) with ``n x n`` rays per pixel (module
     docstring); ``n = 1`` is :func:`mi_npr.kernels.lines` on ``gb`` itself. ``gb`` is the
     film-resolution G-buffer (for ``bright_fade``); ``params`` are those of
     :data:`~mi_npr.kernels.LINES_PARAMS`. ``ids`` (an :class:`~mi_npr.contours.idmode.IdMap`)
     replaces the object ids that ID edges and creases read: another id mode, unselected
-    objects as background."""
+    objects as background.
+
+    Memory: where the supersampled film has more than ``strip_samples`` sub-pixels, it is
+    traced and drawn in strips of film rows (:func:`strips`), each with a halo of the rows the
+    chain reads (:func:`chain_reach`, plus the sub-pixel row whose seams the strip cannot close
+    and the film row of :func:`full_ink_filter`'s cross-section), after a first pass over the
+    strips for the frame's depth range (unless ``near`` and ``far`` are given): the same lines
+    as the whole film at once, at most about ``strip_samples`` sub-pixels held at a time."""
     problem = aa_factor(n)
     if problem:
         raise ParameterError(f"line_aa = {n!r}: {problem}")
+    if isinstance(strip_samples, bool) or not isinstance(strip_samples, int) or strip_samples < 1:
+        raise ParameterError(f"strip_samples = {strip_samples!r}: must be an integer >= 1")
     check_values("lines", LINES_PARAMS, params)
     if n == 1:
         return lines(_mapped(gb, ids), **params)
     width = float(params.get("line_width", 1.0))
     check_aa_width(width, n)
-    big = _mapped(supersampled_gbuffer(scene, sensor, n), ids)
-    if params.get("leaf_edges"):
-        big = big.with_layers({L.LEAF_ID: leaf_id_layer(scene, big)})
     level = float(params.get("bright_fade", 0.0))
     sub = {**params, "line_width": aa_width(width, n), "bright_fade": 0.0}
-    ink = full_ink_filter(lines(big, **sub), n)
+
+    def strip_gbuffer(rows: tuple[int, int] | None) -> GBuffer:
+        big = _mapped(supersampled_gbuffer(scene, sensor, n, rows), ids)
+        if params.get("leaf_edges"):
+            big = big.with_layers({L.LEAF_ID: leaf_id_layer(scene, big)})
+        return big
+
+    w, h = film_size(sensor)
+    # +1 sub-pixel: a strip's outer row, whose seams it cannot close; +1 film row: the
+    # cross-section of full_ink_filter.
+    halo = math.ceil((chain_reach(sub) + 1) / n) + 1
+    core = max(1, strip_samples // (w * n * n) - 2 * halo)
+    parts = strips(h, core, halo)
+    if len(parts) == 1:
+        ink = full_ink_filter(lines(strip_gbuffer(None), **sub), n)
+    else:
+        frame = None
+        if params.get("near") is None or params.get("far") is None:
+            lo, hi = mi.Float(dr.inf), mi.Float(-dr.inf)
+            for r0, r1, s0, s1 in parts:  # the cores cover the film once
+                z = strip_gbuffer((s0, s1))[L.Z].array
+                a, b = finite_range(_rows(z, (r0 - s0) * n, (r1 - r0) * n, w * n))
+                lo, hi = dr.minimum(lo, a), dr.maximum(hi, b)
+                dr.eval(lo, hi)
+            frame = (lo, hi)
+        out = dr.zeros(mi.Float, h * w)
+        for r0, r1, s0, s1 in parts:
+            part = full_ink_filter(lines(strip_gbuffer((s0, s1)), depth_range=frame, **sub), n)
+            at = dr.arange(mi.UInt32, (r1 - r0) * w) + r0 * w
+            dr.scatter(out, _rows(part.array, r0 - s0, r1 - r0, w), at)
+            dr.eval(out)
+        ink = mi.TensorXf(out, shape=(h, w))
     if width < 1.0:  # thinner than a pixel: the 1-px line, lightened (module docstring)
         ink = mi.TensorXf(ink.array * width, shape=ink.shape)
     if level > 0:

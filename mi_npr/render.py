@@ -114,21 +114,31 @@ def channels(
 
 
 def grid_channels(
-    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, shade: bool, n: int = 1
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    table: ObjectTable,
+    shade: bool,
+    n: int = 1,
+    rows: tuple[int, int] | None = None,
 ) -> dict[str, Any]:
     """The channels of the rays through the cell centres of an ``n W x n H`` grid over the
     film (``n = 1``: the pixel centres; cell ``j`` is at ``(j + 0.5) / n`` film pixels), row
-    major, evaluated, with the seams closed (module docstring)."""
+    major, evaluated, with the seams closed (module docstring). ``rows = (r0, r1)``: the grid's
+    rows ``r0 .. r1 - 1`` only (a strip; every cell as in the whole grid, except that the seams
+    of the strip's first and last rows are closed against the strip's cells alone)."""
     w, h = film_size(sensor)
     W, H = w * n, h * n
-    x, y = film_grid(W, H)
+    r0, r1 = (0, H) if rows is None else rows
+    x, y = film_grid(W, r1 - r0)
+    if r0:
+        y = y + float(r0)  # whole numbers plus 0.5: exact in float32, as in the whole grid
     out = channels(scene, sensor, pixel_rays(sensor, x / n, y / n), table, shade)
     dr.eval(*out.values())
 
     def again(x: Any, y: Any, view: Any) -> dict[str, Any]:
         return channels(scene, sensor, pixel_rays(sensor, x, y), table, shade)
 
-    return _close_seams(again, out, W, H, n)
+    return _close_seams(again, out, W, r1 - r0, n, row0=r0)
 
 
 #: ``(x, y, view) -> channels``: the G-buffer channels of the rays through film positions
@@ -137,11 +147,18 @@ Recast = Callable[[Any, Any, Any], dict[str, Any]]
 
 
 def _close_seams(
-    recast: Recast, out: dict[str, Any], W: int, H: int, n: int, views: int = 1
+    recast: Recast,
+    out: dict[str, Any],
+    W: int,
+    H: int,
+    n: int,
+    views: int = 1,
+    row0: int = 0,
 ) -> dict[str, Any]:
     """The seam rule (module docstring) on ``views`` grids of ``W x H`` stacked lane-wise
     (view ``v``'s cell ``(x, y)`` is lane ``v W H + y W + x``); a cell's neighbours are those of
-    its own view."""
+    its own view. ``row0``: the grid's first row is row ``row0`` of a larger grid (a strip), so
+    cells are cast again at their rows there."""
     ids, z = out[L.OBJECT_ID], out[L.Z]
     i = dr.arange(mi.UInt32, views * W * H)
     view = i // (W * H) if views > 1 else mi.UInt32(0)
@@ -173,6 +190,8 @@ def _close_seams(
         return out
     idx = dr.compress(suspect)
     sx, sy = mi.Float(dr.gather(mi.Int32, px, idx)), mi.Float(dr.gather(mi.Int32, py, idx))
+    if row0:
+        sy = sy + float(row0)  # whole numbers: exact in float32
     want = dr.gather(mi.UInt32, ref, idx)
     lo = dr.gather(mi.Float, zmin - spread, idx)
     hi = dr.gather(mi.Float, zmax + spread, idx)

@@ -13,9 +13,12 @@ from mi_npr import layers as L
 from mi_npr.antialias import (
     antialiased_lines,
     box_filter,
+    chain_reach,
     full_ink_filter,
+    strips,
     supersampled_gbuffer,
 )
+from mi_npr.kernels.depth_lines import finite_range
 
 from .helpers import scene_xml
 
@@ -183,3 +186,70 @@ def test08_full_ink_filter_is_differentiable():
         down[y, xx] -= eps
         fd = ((ref_full_ink(up, n) - ref_full_ink(down, n)) * weights).sum() / (2 * eps)
         assert grad[y, xx] == pytest.approx(fd, abs=2e-3), (y, xx)
+
+
+STRIP_PARAMS = [
+    {},
+    {"dilation_iterations": 2, "max_density": 0.3, "line_width": 2.0, "crease_angle": 100.0},
+    {"near": 3.0, "far": 20.0},
+    {"line_width": 0.5, "t": 0.3},
+]
+
+
+@pytest.mark.parametrize("n", [2, 3])
+def test09_strips_draw_the_whole_film(tmp_path, n):
+    """Drawn in strips of film rows (down to one row a strip: every strip border cuts through
+    the sphere's and the cube's outlines), the lines are those of the whole supersampled film,
+    bit for bit: odd sizes, dilation, density thinning, wide and thin lines, given depth range."""
+    w, h = 23, 17
+    scene = _scene(tmp_path, w, h)
+    sensor, gb = scene.sensors()[0], mi_npr.render(scene)
+    for params in STRIP_PARAMS:
+        whole = np.asarray(antialiased_lines(scene, sensor, gb, n, **params))
+        assert whole.max() > 0
+        for budget in (1, w * n * n * 9):
+            got = antialiased_lines(scene, sensor, gb, n, strip_samples=budget, **params)
+            np.testing.assert_array_equal(np.asarray(got), whole, err_msg=f"{params} {budget}")
+    with pytest.raises(mi_npr.ParameterError, match="strip_samples = 0"):
+        antialiased_lines(scene, sensor, gb, n, strip_samples=0)
+
+
+def test10_strips_cover_every_row_once():
+    """Every row in exactly one core; a core's window reaches ``halo`` rows beyond it, or the
+    film's border; windows of one height."""
+    for h in (1, 2, 7, 10, 31):
+        for core in (1, 2, 3, 8, 40):
+            for halo in (0, 1, 2, 5):
+                parts = strips(h, core, halo)
+                rows = [y for r0, r1, _, _ in parts for y in range(r0, r1)]
+                assert rows == list(range(h))
+                assert len({s1 - s0 for *_, s0, s1 in parts}) == 1
+                for r0, r1, s0, s1 in parts:
+                    assert 0 <= s0 <= r0 < r1 <= s1 <= h and r1 - r0 <= core
+                    assert s0 == 0 or r0 - s0 >= halo
+                    assert s1 == h or s1 - r1 >= halo
+
+
+@pytest.mark.parametrize("params", [*STRIP_PARAMS[:2], {"dilation_size": 5, "line_width": 7.0}])
+def test11_chain_reach_bounds_what_the_chain_reads(params):
+    """The chain on rows s0..s1 of a random G-buffer (blocky depth, ids and normals), with the
+    whole frame's depth range, equals the chain on the whole image at every row farther than
+    chain_reach from a cut."""
+    rng = np.random.default_rng(11)
+    h, w = 60, 30
+    blocks = rng.random((h // 4 + 1, w // 5 + 1))
+    Z = (2 + 3 * np.kron(blocks, np.ones((4, 5)))[:h, :w]).astype(np.float32)
+    Z[rng.random((h, w)) < 0.05] = np.inf
+    ids = (np.kron(blocks > 0.5, np.ones((4, 5)))[:h, :w] + 1).astype(np.uint32)
+    N = rng.normal(size=(3, h, w)).astype(np.float32)
+    gb = {L.Z: Z, L.OBJECT_ID: ids, **{k: N[i] for i, k in enumerate(L.N)}}
+    whole = np.asarray(K.lines(gb, **params))
+    frame = finite_range(mi_npr.mi.Float(Z.ravel()))
+    r = chain_reach(params)
+    assert r <= 15
+    for s0, s1 in ((0, 30), (20, 60), (12, 48)):
+        part = {k: v[s0:s1] for k, v in gb.items()}
+        got = np.asarray(K.lines(part, depth_range=frame, **params))
+        lo = s0 + (r if s0 > 0 else 0)
+        hi = s1 - (r if s1 < h else 0)
+        np.testing.assert_array_equal(got[lo - s0 : hi - s0], whole[lo:hi], err_msg=(s0, s1))

@@ -55,6 +55,7 @@ as :mod:`mi_npr.io.strokes` documents for ``<stem>_strokes.svg``, which is writt
 from __future__ import annotations
 
 import base64
+import functools
 import io
 import os
 import re
@@ -95,7 +96,14 @@ def _hex(color: Sequence[float]) -> str:
     c = np.asarray(color, dtype=np.float32).reshape(-1)
     if c.size != 3:
         raise ParameterError(f"color {tuple(color)!r} is not an RGB triple")
-    s = (linear_to_srgb(c) * 255.0 + 0.5).astype(np.uint8)
+    return _srgb_hex(c.tobytes())
+
+
+@functools.lru_cache(maxsize=1024)
+def _srgb_hex(rgb: bytes) -> str:
+    """``#rrggbb`` of three float32 (their bytes): cached, as every stroke of a drawing asks
+    for one of its few colours."""
+    s = (linear_to_srgb(np.frombuffer(rgb, np.float32)) * 255.0 + 0.5).astype(np.uint8)
     return "#" + "".join(f"{v:02x}" for v in s)
 
 

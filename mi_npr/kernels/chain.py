@@ -144,14 +144,19 @@ def _layer(gbuffer: Mapping[str, Any], name: str, why: str) -> Any:
 
 
 @exact
-def lines(gbuffer: Mapping[str, Any], **params: Any) -> Tensor:
+def lines(
+    gbuffer: Mapping[str, Any], *, depth_range: tuple[Any, Any] | None = None, **params: Any
+) -> Tensor:
     """The gray-level line image of a G-buffer (the ``lines`` layer), see the module docstring.
 
     ``gbuffer`` is a :class:`~mi_npr.gbuffer.GBuffer` (or any mapping of layer names to (H, W)
     arrays) with ``Z``, plus ``object_id`` for ID edges, ``N.X N.Y N.Z`` (and ``object_id``) for
     creases, ``leaf_id`` for leaf edges and ``R G B`` (or ``beauty.R/G/B``) for ``bright_fade``.
     ``params`` are those of :data:`LINES_PARAMS`; unknown names and bad values raise
-    :class:`~mi_npr.errors.ParameterError` naming the parameter.
+    :class:`~mi_npr.errors.ParameterError` naming the parameter. ``depth_range``: where
+    ``gbuffer`` is a part of a frame (a strip of :func:`mi_npr.antialias.antialiased_lines`),
+    the whole frame's smallest and largest finite ``Z`` (1-lane ``Float`` arrays,
+    :func:`~mi_npr.kernels.depth_lines.finite_range`), which ``near`` and ``far`` default to.
 
     >>> gb = mi_npr.render("scenes_xml/scene2.xml", width=64, height=48, spp=1)
     >>> ink = mi_npr.kernels.lines(gb, t=0.5, crease_angle=0)
@@ -168,7 +173,9 @@ def lines(gbuffer: Mapping[str, Any], **params: Any) -> Tensor:
     z, shape = float_image(_layer(gbuffer, L.Z, "depth"), L.Z)
     grid = Grid(shape, z)
 
-    normalizer = depth_normalizer(z, p["near"], p["far"], relative=True, background=2.0)
+    normalizer = depth_normalizer(
+        z, p["near"], p["far"], relative=True, background=2.0, frame=depth_range
+    )
     depth = Field(z, grid, normalizer)
     for _ in range(p["dilation_iterations"]):
         d = dilated(depth, p["dilation_size"])

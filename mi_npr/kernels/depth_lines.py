@@ -95,7 +95,7 @@ def check_range(near: float | None, far: float | None, who: str = "") -> None:
         raise ParameterError(f"{prefix}near = {near!r}, far = {far!r}: near must be less than far")
 
 
-def _finite_range(z: Array) -> tuple[Array, Array]:
+def finite_range(z: Array) -> tuple[Array, Array]:
     """Smallest and largest finite value of ``z`` (+inf, -inf when none), as 1-lane arrays that
     stay on the device (no round trip to Python)."""
     finite = dr.isfinite(z)
@@ -113,6 +113,7 @@ def depth_normalizer(
     *,
     relative: bool = False,
     background: float = 1.0,
+    frame: tuple[Array, Array] | None = None,
 ) -> Callable[[Array], Array]:
     """The per-pixel map ``Z -> D`` of :func:`normalize_depth` for the frame ``z`` (flat),
     to be fused into the kernel that reads the depth.
@@ -122,11 +123,12 @@ def depth_normalizer(
     depth step is measured against at least the depth where it happens and a distant object's
     own relief is not stretched over the whole [0, 1] range. ``background`` is the value of
     non-finite ``Z`` (the chain uses 2: the background lies infinitely far, beyond every finite
-    pixel, whatever ``far`` is).
+    pixel, whatever ``far`` is). ``frame``: the frame's smallest and largest finite ``Z``
+    (:func:`finite_range`) where ``z`` is only a part of it (a strip), else ``z``'s own.
     """
     check_range(near, far)
     if near is None or far is None:
-        lo, hi = _finite_range(z)
+        lo, hi = finite_range(z) if frame is None else frame
         # One bound given: the other comes from the frame but never crosses it.
         n = lo if near is None else opaque(near, z)
         f = hi if far is None else opaque(far, z)
