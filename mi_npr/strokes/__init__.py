@@ -29,7 +29,8 @@ object space, exact, and the image is used for what object space lacks.
    deeper, and drawn dashed they would cover the picture). Outlines of step 2 are visible
    by construction (their hidden parts are not drawn).
 4. *Chaining* (:mod:`~mi_npr.strokes.chain`): pieces of one kind and visibility state joined
-   at shared vertices while the stroke turns less than ``chain_angle``; where three or more
+   at shared vertices while the stroke turns less than ``chain_angle`` (pieces shorter than a
+   pixel on the film never break it by turning); where three or more
    meet, the straightest pair runs on and the others end (the bar of a T continues, its stem
    stops); a visibility change ends a stroke, so a line passing behind an occluder ends on the
    occluder's outline (a T-junction in the image).
