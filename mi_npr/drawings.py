@@ -25,6 +25,8 @@ from typing import Any
 
 from . import cryptomatte
 from . import layers as L
+from .ad.fit import require_ad
+from .ad.visibility import soft_lines
 from .antialias import aa_factor, antialiased_lines, check_aa_width
 from .compose import over_raw, with_overlay
 from .contours.idmode import ID_MODES, OBJECT_MODES, IdMap, id_map
@@ -152,7 +154,22 @@ def object_ids(scene: Any, table: Any, params: Mapping[str, Any]) -> IdMap:
 #: one ray against 8 x 8 (:mod:`mi_npr.antialias`).
 LINE_AA_DEFAULT = 3
 
+#: What draws the ``lines`` layer: ``thesis``, eqs. 5.1-5.4 on the exact G-buffer
+#: (:func:`mi_npr.antialias.antialiased_lines`), or ``soft``, the differentiable line image of
+#: :func:`mi_npr.ad.soft_lines` whose gradients include silhouettes that move.
+LINE_MODELS = ("thesis", "soft")
+
+#: The parameters that the ``soft`` line model takes; the others are the thesis model's.
+SOFT_PARAMS = ("line_model", "line_width", "line_aa", "line_color")
+
 LINES_TABLE: tuple[Param, ...] = (
+    Param(
+        "line_model",
+        str,
+        "thesis",
+        "thesis (eqs. 5.1-5.4) or soft (differentiable: silhouettes that move have gradients)",
+        one_of(LINE_MODELS),
+    ),
     *LINES_PARAMS[:-2],
     Param("line_color", tuple, (0.0, 0.0, 0.0), "colour of the lines (linear RGB)", rgb_color),
     Param("line_aa", int, LINE_AA_DEFAULT, "rays per pixel side for anti-aliased lines", aa_factor),
@@ -162,14 +179,39 @@ LINES_TABLE: tuple[Param, ...] = (
 
 
 def _check_lines(values: Mapping[str, Any], who: str) -> None:
+    if values.get("line_model", "thesis") == "soft":
+        _check_soft(values, who)
+        return
     check_range(values["near"], values["far"], who)
     check_aa_width(values["line_width"], values["line_aa"], who)
 
 
-def _draw_lines(session: SceneSession, gb: GBuffer, params: Mapping[str, Any], **_: Any) -> Drawn:
+def _check_soft(values: Mapping[str, Any], who: str) -> None:
+    """The soft line model needs an AD variant and takes none of the thesis model's
+    parameters: one set away from its default would be ignored, so it is refused."""
+    require_ad(f"{who}: line_model = 'soft'")
+    for p in LINES_TABLE:
+        if p.name not in SOFT_PARAMS and values.get(p.name, p.default) != p.default:
+            raise ParameterError(
+                f"{who}: parameter {p.name!r} belongs to line_model = 'thesis'; "
+                f"line_model = 'soft' takes {', '.join(SOFT_PARAMS[1:])}"
+            )
+
+
+def _draw_lines(
+    session: SceneSession,
+    gb: GBuffer,
+    params: Mapping[str, Any],
+    *,
+    depth_scale: float | None = None,
+    **_: Any,
+) -> Drawn:
     """The ``lines`` layer of the ``npr_lines`` parameters (all of them, checked), composited
-    in ``line_color`` onto ``R G B`` (the raw beauty kept)."""
+    in ``line_color`` onto ``R G B`` (the raw beauty kept). ``depth_scale``: that of the soft
+    model (:func:`_draw_soft_lines`)."""
     scene, sensor = session.scene, session.sensor
+    if params.get("line_model") == "soft":
+        return _draw_soft_lines(session, gb, params, depth_scale)
     chain = {p.name: params[p.name] for p in LINES_PARAMS}
     if chain["leaf_edges"] and L.LEAF_ID not in gb:
         gb = gb.with_layers({L.LEAF_ID: leaf_id_layer(scene, gb)})
@@ -178,6 +220,43 @@ def _draw_lines(session: SceneSession, gb: GBuffer, params: Mapping[str, Any], *
     ink = antialiased_lines(scene, sensor, gb, n, ids=ids, **chain)
     sel = {k: params[k] for k in ("id_mode", "only", "ignore") if params.get(k)}
     meta = json.dumps({**chain, "line_aa": n, **sel})
+    gb = gb.with_layers({L.LINES: ink}).with_metadata(**{"mi_npr/lines": meta})
+    return Drawn(with_overlay(gb, ink, params["line_color"]))
+
+
+def soft_line_image(
+    scene: Any, sensor: Any, params: Mapping[str, Any], depth_scale: float | None = None
+) -> Any:
+    """The ``lines`` layer of ``line_model = 'soft'``, an (H, W) ``TensorXf`` with its
+    gradients: :func:`mi_npr.ad.soft_lines` of ``sensor`` at its film's size, ``line_aa``
+    samples a pixel side and a filter of ``sigma = line_width / 2`` pixels (its band is about
+    ``2 sigma`` wide). ``depth_scale``: the length that makes depths unitless (``None``: the
+    scene's bounding-box diagonal now). The film must have no crop window (the soft lines
+    are drawn over the whole film)."""
+    film = sensor.film()
+    size, crop = (tuple(int(v) for v in f) for f in (film.size(), film.crop_size()))
+    if size != crop or any(int(v) for v in film.crop_offset()):
+        raise ParameterError(
+            f"line_model = 'soft' draws the whole film: its crop window {crop[0]}x{crop[1]} "
+            f"of {size[0]}x{size[1]} is not supported"
+        )
+    return soft_lines(
+        scene,
+        sensor,
+        size,
+        n=params["line_aa"],
+        sigma=0.5 * params["line_width"],
+        depth_scale=depth_scale,
+    )
+
+
+def _draw_soft_lines(
+    session: SceneSession, gb: GBuffer, params: Mapping[str, Any], depth_scale: float | None
+) -> Drawn:
+    """:func:`soft_line_image` composited in ``line_color`` onto ``R G B``, as the thesis
+    model's lines are."""
+    ink = soft_line_image(session.scene, session.sensor, params, depth_scale)
+    meta = json.dumps({k: params[k] for k in SOFT_PARAMS if k != "line_color"})
     gb = gb.with_layers({L.LINES: ink}).with_metadata(**{"mi_npr/lines": meta})
     return Drawn(with_overlay(gb, ink, params["line_color"]))
 

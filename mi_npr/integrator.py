@@ -15,6 +15,11 @@ Subclasses declare ``PLUGIN`` (the XML name) and ``DRAWING``, the drawing of the
 function is their :meth:`post`; they list their channels in :meth:`aov_names`. Plugins hold no
 algorithm: the drawing's function serves the CLI, batches and notebooks too.
 
+Under ``mi.render(scene, params=params)``, ``dr.forward`` and ``dr.backward`` run Mitsuba's
+``render_forward`` and :meth:`NprIntegrator.render_backward`: automatic differentiation of
+:meth:`~NprIntegrator.render`, except that a gradient on the soft lines channel alone
+(``npr_lines`` with ``line_model = 'soft'``) differentiates those lines alone.
+
 Mitsuba binds Python integrators to the variant active when the class is defined, which is why
 this module is reloaded by :func:`mi_npr._variant.register_plugins` on every variant change.
 """
@@ -30,7 +35,7 @@ import numpy as np
 
 from . import cryptomatte
 from . import layers as L
-from .drawings import DRAWINGS, Drawing
+from .drawings import DRAWINGS, Drawing, soft_line_image
 from .errors import ParameterError
 from .gbuffer import GBuffer
 from .params import Param, read_props
@@ -173,6 +178,7 @@ class NprIntegrator(mi.SamplingIntegrator):
         )
         if self.DRAWING is not None:  # the rules between parameters (near < far)
             self.DRAWING.check(self.params, self.PLUGIN)
+        self._depth_scales: dict[int, float] = {}
 
     # ------------------------------------------------------------ the pipeline
     def aov_names(self) -> list[str]:
@@ -187,7 +193,21 @@ class NprIntegrator(mi.SamplingIntegrator):
         """Add this integrator's drawing to ``gb`` (its layers, composited onto R, G, B)."""
         if self.DRAWING is None:
             return gb
-        return self.DRAWING.draw(session, gb, self.params).gbuffer
+        extra = {}
+        if self.params.get("line_model") == "soft":
+            extra["depth_scale"] = self.depth_scale(session.scene)
+        return self.DRAWING.draw(session, gb, self.params, **extra).gbuffer
+
+    def depth_scale(self, scene: mi.Scene) -> float:
+        """The length that makes the soft line model's depths unitless: ``scene``'s
+        bounding-box diagonal the first time this integrator draws it, kept for its later
+        renders, so that an optimisation moving a shape does not change what the lines
+        measure (their gradients leave the box out)."""
+        key = id(scene)  # a Mitsuba scene takes no weak reference
+        if key not in self._depth_scales:
+            bb = scene.bbox()
+            self._depth_scales[key] = float(dr.norm(bb.max - bb.min)) if bb.valid() else 1.0
+        return self._depth_scales[key]
 
     def npr_gbuffer(
         self,
@@ -233,6 +253,48 @@ class NprIntegrator(mi.SamplingIntegrator):
         sensor = sensor_of(scene, sensor)
         gb = self.npr_gbuffer(scene, sensor, _count(spp) or None, _count(seed))
         return develop_into_film(sensor.film(), gb, self.aov_names())
+
+    def render_backward(
+        self,
+        scene: mi.Scene,
+        params: Any,
+        grad_in: mi.TensorXf,
+        sensor: int | mi.Sensor = 0,
+        seed: Any = 0,
+        spp: int = 0,
+    ) -> None:
+        """The adjoint of :meth:`render`, which ``dr.backward`` runs through
+        ``mi.render(scene, params=params)``: ``grad_in`` (the image's shape) propagated to the
+        scene parameters. With ``line_model = 'soft'`` and a gradient on the ``lines.V``
+        channel alone (a loss on the drawing), only the soft lines are differentiated (their
+        interior and boundary terms, :mod:`mi_npr.ad.visibility`); otherwise the whole
+        :meth:`render` is, by automatic differentiation (Mitsuba's default, as
+        :meth:`render_forward` always is)."""
+        sensor = sensor_of(scene, sensor)
+        k = self._soft_channel(grad_in)
+        if k is None:
+            # Recorded loops cannot be differentiated (Mitsuba's default turns them off too).
+            with dr.scoped_set_flag(dr.JitFlag.LoopRecord, False):
+                image = self.render(scene, sensor, seed, spp)
+                dr.backward_from((image * grad_in).array)
+            return
+        ink = soft_line_image(scene, sensor, self.params, self.depth_scale(scene))
+        c = int(grad_in.shape[2])
+        n = dr.width(ink.array)
+        g = dr.gather(mi.Float, grad_in.array, dr.arange(mi.UInt32, n) * c + k)
+        dr.backward_from(ink.array * g)
+
+    def _soft_channel(self, grad_in: mi.TensorXf) -> int | None:
+        """The index of ``lines.V`` in ``grad_in``'s channels when the soft line model is on
+        and no other channel has a gradient, else ``None``."""
+        aovs = self.aov_names()
+        if self.params.get("line_model") != "soft" or L.LINES not in aovs:
+            return None
+        c = int(grad_in.shape[2])
+        k = c - len(aovs) + aovs.index(L.LINES)  # R G B (A) come first
+        ch = dr.arange(mi.UInt32, dr.width(grad_in.array)) % c
+        others = dr.any((grad_in.array != 0.0) & (ch != k))
+        return None if bool(others[0] if dr.is_array_v(others) else others) else k
 
     def sample(
         self,

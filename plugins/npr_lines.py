@@ -15,6 +15,14 @@ layer, and it is composited onto the nested integrator's beauty in ``line_color`
      - Type
      - Default
      - Meaning
+   * - ``line_model``
+     - string
+     - ``thesis``
+     - What draws ``lines.V``: ``thesis``, eqs. 5.1-5.4 on the exact G-buffer (this page), or
+       ``soft``, the differentiable line image of :func:`mi_npr.ad.soft_lines` (below), whose
+       gradients under ``mi.render(scene, params=params)`` include silhouettes and occlusion
+       boundaries that move. ``soft`` takes ``line_width``, ``line_aa`` and ``line_color``
+       only (any other parameter set is an error) and needs an AD variant.
    * - ``c``
      - float
      - 40
@@ -116,6 +124,23 @@ layer to the EXR, the composited beauty to the PNG and the drawing alone (black 
 (``--line-width``, ``--line-aa``, ``--line-color``, ...) over the XML's value; the table is the
 ``lines`` drawing's (:data:`mi_npr.drawings.DRAWINGS`).
 
+**The soft line model** (``line_model = 'soft'``): ``lines.V`` is
+:func:`mi_npr.ad.soft_lines` of the sensor at its film's size (no crop window), with
+``line_aa`` samples a pixel side and a Gaussian filter of ``sigma = line_width / 2`` pixels (a
+band about ``line_width`` wide): silhouettes, ID edges, occlusion boundaries and creases drawn
+by one rule, composited in ``line_color`` as above. Its depths are made unitless by the
+scene's bounding-box diagonal when this integrator first draws the scene, kept afterwards (so
+that moving a shape does not change what the lines measure). ``dr.backward`` through
+``mi.render(scene, params=params)`` gives its interior terms (the samples' rays follow the
+camera and the shapes) and boundary terms (the flux of each moving discontinuity, from the
+front surface's image velocity); topology changes (a line born at a cusp or a T-junction,
+features thinner than a sample) and the image frame beyond the filter's margin are not
+covered (:mod:`mi_npr.ad.visibility`). When only ``lines.V`` receives gradients, the backward
+pass differentiates the soft lines alone; a gradient on any other channel differentiates the
+whole render: the soft lines in it (``R G B`` composites them) with both terms, the G-buffer
+and the beauty with the interior term only (their pixel-centre silhouettes jump). The
+forward-mode derivative (``dr.forward``) is that of the whole render too.
+
 XML::
 
     <integrator type="npr_lines">
@@ -123,6 +148,13 @@ XML::
         <float name="crease_angle" value="120"/>
         <rgb name="line_color" value="0.1, 0.05, 0.0"/>
         <integrator type="path"/>
+    </integrator>
+
+Differentiable lines, for ``mi.render(scene, params=params)`` and ``dr.backward``::
+
+    <integrator type="npr_lines">
+        <string name="line_model" value="soft"/>
+        <integer name="line_aa" value="4"/>
     </integrator>
 
 Every scene of ``scenes_xml/`` takes it: ``mi-npr render scenes_xml/scene1.xml -o out

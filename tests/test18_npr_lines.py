@@ -98,11 +98,13 @@ def test04_defaults_are_the_chains_defaults():
     chain = [p.name for p in K.LINES_PARAMS]  # ... line_width, bright_fade, near, far
     own = ["line_color", "line_aa"]
     sel = ["id_mode", "only", "ignore"]  # object selection
-    assert [p.name for p in integ.PARAMS] == [*chain[:-2], *own, *chain[-2:], *sel]
+    model = ["line_model"]  # what draws the lines, first
+    assert [p.name for p in integ.PARAMS] == [*model, *chain[:-2], *own, *chain[-2:], *sel]
     defaults = {p.name: p.default for p in K.LINES_PARAMS}
-    own = ["line_color", "line_aa", "cryptomatte"]  # the plugin's own and every integrator's
+    own = [*model, "line_color", "line_aa", "cryptomatte"]  # the plugin's own and every one's
     assert {k: v for k, v in integ.params.items() if k not in own + sel} == defaults
     assert integ.params["line_aa"] == 3  # chosen by measurement
+    assert integ.params["line_model"] == "thesis"
     assert integ.params["line_color"] == (0.0, 0.0, 0.0)
 
 

@@ -1,0 +1,198 @@
+"""``npr_lines`` with ``line_model = 'soft'`` under ``mi.render(scene, params=params)``: the
+``lines.V`` channel is :func:`mi_npr.ad.soft_lines` of the scene's sensor, and ``dr.backward``
+through the render gives its visibility gradients (silhouettes that move), as Mitsuba's own
+optimisation loops use them.
+
+References: ``soft_lines`` called directly (its options spelt out from the manual's rule:
+``n = line_aa``, ``sigma = line_width / 2``, the scene's bounding-box diagonal as the depth
+scale); central finite differences of the rendered channel itself, over a step of many
+sub-samples (the primal moves in steps of ``1 / line_aa`` pixel)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import mi_npr
+from mi_npr.ad import soft_lines
+from mi_npr.errors import ParameterError
+
+mi, dr = mi_npr.mi, mi_npr.dr
+
+W, H = 48, 36
+AA, WIDTH = 6, 2.0  # 6 x 6 samples a pixel, sigma = 1 px: smooth to a step of ~0.1 px
+LINES, RED = 3, 0  # channels: R G B, then lines.V
+
+pytestmark = pytest.mark.skipif(
+    not str(mi.variant()).startswith(("llvm_ad", "cuda_ad")), reason="needs an AD variant"
+)
+
+
+def _scene(shape: dict | None = None, **lines) -> mi.Scene:
+    """A sphere of radius 0.5 at the origin (or ``shape``) seen from 5 units away."""
+    return mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": {
+                "type": "npr_lines",
+                "line_model": "soft",
+                "line_aa": AA,
+                "line_width": WIDTH,
+                **lines,
+            },
+            "sensor": {
+                "type": "perspective",
+                "fov": 40,
+                "to_world": mi.ScalarTransform4f().look_at([0, 0, -5], [0, 0, 0], [0, 1, 0]),
+                "film": {"type": "hdrfilm", "width": W, "height": H},
+                "sampler": {"type": "independent", "sample_count": 1},
+            },
+            "ball": shape or {"type": "sphere", "radius": 0.5, "bsdf": {"type": "diffuse"}},
+        }
+    )
+
+
+def _weights() -> mi.Float:
+    """Pixel weights that make a sideways motion change the loss (a plain sum is symmetric)."""
+    yy, xx = np.mgrid[0:H, 0:W]
+    w = 1.0 + np.sin(xx / 7.0) * np.cos(yy / 5.0) + xx / W
+    return mi.Float(w.ravel().astype(np.float32))
+
+
+def _channel(image: mi.TensorXf, k: int) -> mi.Float:
+    """Channel ``k`` of an (H, W, C) image, flat, with its gradients."""
+    c = int(image.shape[2])
+    return dr.gather(mi.Float, image.array, dr.arange(mi.UInt32, H * W) * c + k)
+
+
+def test01_the_line_channel_is_soft_lines_of_the_sensor():
+    scene = _scene()
+    image = mi.render(scene, spp=1)
+    assert image.shape == (H, W, 16)
+    bb = scene.bbox()
+    diagonal = float(np.linalg.norm(np.asarray(bb.max) - np.asarray(bb.min)))
+    assert diagonal == pytest.approx(math.sqrt(3.0), rel=1e-5)  # the sphere's box
+    ref = soft_lines(scene, n=AA, sigma=WIDTH / 2, depth_scale=diagonal)
+    ink = np.asarray(image)[:, :, LINES]
+    assert np.allclose(ink, np.asarray(ref), atol=1e-6)
+    assert ink.max() > 0.5 and ink[0, 0] == 0.0  # an outline, and paper away from it
+    # Black lines composited onto the beauty (kept after the G-buffer channels).
+    raw = np.asarray(image)[:, :, 13:16]
+    assert np.allclose(np.asarray(image)[:, :, :3], raw * (1.0 - ink[..., None]), atol=1e-6)
+
+
+def _translate(params, key: str, d: tuple[float, float, float]):
+    """``f(v)``: the parameter ``key`` (a ``to_world``) moved by ``v d``, ``params.update()``."""
+    T0 = mi.Transform4f(params[key])
+
+    def move(v) -> None:
+        params[key] = mi.Transform4f().translate(mi.Vector3f(d) * v) @ T0
+        params.update()
+
+    return move
+
+
+@pytest.mark.parametrize(
+    ("key", "d", "channel"),
+    [
+        ("ball.to_world", (0.0, 0.0, 1.0), LINES),  # the sphere moves away
+        ("ball.to_world", (1.0, 0.0, 0.0), LINES),  # the sphere moves sideways
+        ("sensor.to_world", (0.5, 0.3, 0.0), LINES),  # the camera moves sideways and up
+        ("sensor.to_world", (0.0, 0.0, 1.0), LINES),  # the camera moves forward
+        ("ball.to_world", (0.0, 0.0, 1.0), RED),  # the lines composited onto the beauty
+    ],
+)
+def test02_gradients_match_finite_differences_of_the_render(key, d, channel):
+    scene = _scene()
+    params = mi.traverse(scene)
+    move = _translate(params, key, d)
+    weights = _weights()
+
+    def loss(v):
+        move(v)
+        return dr.sum(_channel(mi.render(scene, params=params, spp=1, seed=1), channel) * weights)
+
+    v = mi.Float(0.0)
+    dr.enable_grad(v)
+    dr.backward(loss(v))
+    grad = float(dr.grad(v)[0])
+    eps = 0.1
+    fd = (float(loss(mi.Float(eps))[0]) - float(loss(mi.Float(-eps))[0])) / (2 * eps)
+    move(mi.Float(0.0))
+    assert abs(fd) > 10.0  # the motion changes the drawing
+    assert grad == pytest.approx(fd, rel=0.05)
+    if key == "ball.to_world" and d[2] and channel == LINES:
+        assert grad < 0.0  # moving away, the outline shrinks: less ink
+
+
+def test03_an_adam_loop_fits_a_translation():
+    """Mitsuba's tutorial loop (``mi.ad.Adam``, ``params.update(opt)``, ``dr.backward``) on a
+    box's vertices, towards the lines of the box moved by (0.15, 0.1, 0)."""
+    box = mi.ScalarTransform4f().rotate([0, 1, 0], 30).rotate([1, 0, 0], 20).scale(0.6)
+    scene = _scene({"type": "cube", "to_world": box})
+    params = mi.traverse(scene)
+    key = "ball.vertex_positions"
+    v0 = mi.Float(params[key])
+    params[key] = dr.ravel(dr.unravel(mi.Point3f, v0) + mi.Vector3f(0.15, 0.1, 0.0))
+    params.update()
+    target = mi.Float(_channel(mi.render(scene, spp=1), LINES))
+    params[key] = v0
+    params.update()
+
+    opt = mi.ad.Adam(lr=0.01)
+    opt[key] = params[key]
+    params.update(opt)
+    losses = []
+    for it in range(6):
+        image = mi.render(scene, params=params, spp=1, seed=it)
+        loss = dr.mean(dr.square(_channel(image, LINES) - target))
+        dr.backward(loss)
+        losses.append(float(loss[0]))
+        opt.step()
+        params.update(opt)
+    assert losses[-1] < 0.7 * losses[0]
+    assert all(np.isfinite(losses))
+
+
+BALL = '<shape type="sphere" id="ball"><point name="center" x="0" y="0" z="4"/></shape>'
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ('<string name="line_model" value="sketchy"/>', "'line_model' = 'sketchy': expected one"),
+        ('<float name="t" value="0.5"/>', "'t' belongs to line_model = 'thesis'"),
+    ],
+)
+def test04_bad_parameters_are_one_line_errors(write_scene, params, message):
+    soft = '<string name="line_model" value="soft"/>' if "sketchy" not in params else ""
+    path = write_scene(BALL, integrator=f'<integrator type="npr_lines">{soft}{params}</integrator>')
+    with pytest.raises(mi_npr.SceneError) as e:
+        mi_npr.load_scene(path)
+    text = str(e.value)
+    assert message in text and "npr_lines" in text and str(path) in text
+    assert "\n" not in text
+
+
+def test05_a_variant_without_ad_and_a_crop_window_are_refused(write_scene, monkeypatch):
+    path = write_scene(BALL, integrator='<integrator type="npr_lines"/>', width=16, height=12)
+    scene = mi_npr.load_scene(path)
+    params = {"line_model": "soft", "line_aa": 2, "line_width": 1.0}
+    ink = mi_npr.render_layers(scene, ["lines"], params, scene_drawings=False).gbuffer.numpy(
+        "lines.V"
+    )
+    assert ink.max() > 0.5  # the outline
+    assert np.allclose(ink, np.asarray(soft_lines(scene, n=2)), atol=1e-6)
+    sensor = mi.load_dict(
+        {
+            "type": "perspective",
+            "film": {"type": "hdrfilm", "width": 16, "height": 12, "crop_width": 8},
+        }
+    )
+    with pytest.raises(ParameterError, match="crop window 8x12 of 16x12 is not supported"):
+        mi_npr.render_layers(scene, ["lines"], params, sensor=sensor, scene_drawings=False)
+    monkeypatch.setattr(dr, "is_diff_v", lambda t: False)  # as on a variant without AD
+    with pytest.raises(ParameterError, match="line_model = 'soft' needs an AD variant"):
+        mi_npr.render_layers(scene, ["lines"], params, scene_drawings=False)
