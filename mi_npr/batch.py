@@ -11,7 +11,8 @@ files ``mi-npr render`` writes, :func:`mi_npr.io.write_layered_outputs`) by the 
 together or none (atomic output sets). Before anything renders, the names every job would write
 (:func:`job_files`, read off the writer) are checked across jobs and scenes
 (:func:`check_outputs`): no file is written by two jobs. The worker returns the job's manifest
-row; only this process (the client) appends rows to ``OUT/manifest.jsonl``
+row (with ``workers=0``, a writer thread writes a job's files while the next jobs render,
+:class:`_Writer`); only this process (the client) appends rows to ``OUT/manifest.jsonl``
 (:mod:`mi_npr.io.manifest`), one line per finished or failed job, so a kill at any moment
 leaves whole lines and whole output sets. ``resume`` skips a job only when its last row says
 ``done`` with the run's :func:`job_key` (scene content with every referenced file, settings,
