@@ -9,7 +9,9 @@ Meshes (generated here, written as PLY): a bumpy latitude-longitude sphere of ~1
 - **views/s, compute** (one process, all cores): depth, normals, ids and the lines
   (``mi_npr.kernels.lines``, 1 ray a pixel) of every view, per view (``render_gbuffer`` on each
   view's sensor: the anchor) against many views per launch (``render_views``, groups of
-  :func:`mi_npr.render.views_per_launch`); the two alternate, median of ``--repeat`` rounds.
+  :func:`mi_npr.render.views_per_launch`), and the launches with the lines' default
+  anti-aliasing (``antialiased_lines``, ``line_aa`` 3); they alternate, median of ``--repeat``
+  rounds.
 - **views/s, files**: ``make_dataset(..., drawings=("lines",))`` in this process, every file and
   manifest row written: one view a launch with the studio's beauty (what a dataset did before
   launches; the anchor) against the defaults (launches, no beauty), with the lines' default
@@ -90,6 +92,7 @@ def studio(mesh: Path, work: Path) -> Any:
 def views_per_second(session: Any, n: int, repeat: int) -> dict[str, Any]:
     """Compute only: per view (anchor) against launches; lines at 1 ray a pixel."""
     import mi_npr
+    from mi_npr.antialias import antialiased_lines
     from mi_npr.camera import sensor_for
     from mi_npr.render import render_gbuffer, render_views, views_per_launch
     from mi_npr.session import SceneSession
@@ -112,10 +115,19 @@ def views_per_second(session: Any, n: int, repeat: int) -> dict[str, Any]:
                 dr.eval(mi_npr.kernels.lines(gb))
         dr.sync_thread()
 
-    times: dict[str, list[float]] = {"per_view": [], "launch": []}
-    per_view(), launched()  # compile
+    def launched_aa3() -> None:
+        for a in range(0, len(sensors), k):
+            group = sensors[a : a + k]
+            for s, gb in zip(group, render_views(session, group), strict=True):
+                dr.eval(antialiased_lines(session.scene, s, gb, 3))
+        dr.sync_thread()
+
+    runs = (("per_view", per_view), ("launch", launched), ("launch_line_aa3", launched_aa3))
+    times: dict[str, list[float]] = {name: [] for name, _ in runs}
+    for _, fn in runs:  # compile
+        fn()
     for _ in range(repeat):
-        for name, fn in (("per_view", per_view), ("launch", launched)):
+        for name, fn in runs:
             t0 = time.perf_counter()
             fn()
             times[name].append(time.perf_counter() - t0)
@@ -125,6 +137,7 @@ def views_per_second(session: Any, n: int, repeat: int) -> dict[str, Any]:
         "views_per_launch": k,
         "per_view_views_s": out["per_view"],
         "launch_views_s": out["launch"],
+        "launch_line_aa3_views_s": out["launch_line_aa3"],
         "ratio_launch_vs_per_view": out["launch"] / out["per_view"],
     }
 
@@ -469,7 +482,8 @@ def main() -> int:
             c, f, b = r["compute"], r["files"], r["blender"]
             print(f"  compute per view {c['per_view_views_s']:8.1f}   launch "
                   f"{c['launch_views_s']:8.1f}   "
-                  f"ratio {c['ratio_launch_vs_per_view']:.2f}")  # fmt: skip
+                  f"ratio {c['ratio_launch_vs_per_view']:.2f}   (line_aa 3: "
+                  f"{c['launch_line_aa3_views_s']:.1f})")  # fmt: skip
             print(f"  files   before   {f['before_per_view_beauty_views_s']:8.1f}   after  "
                   f"{f['after_defaults_views_s']:8.1f}   ratio "
                   f"{f['ratio_after_defaults_vs_before']:.2f}   (line_aa 1: "

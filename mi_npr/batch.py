@@ -11,7 +11,8 @@ files ``mi-npr render`` writes, :func:`mi_npr.io.write_layered_outputs`) by the 
 together or none (atomic output sets). Before anything renders, the names every job would write
 (:func:`job_files`, read off the writer) are checked across jobs and scenes
 (:func:`check_outputs`): no file is written by two jobs. The worker returns the job's manifest
-row; only this process (the client) appends rows to ``OUT/manifest.jsonl``
+row (with ``workers=0``, a writer thread writes a job's files while the next jobs render,
+:class:`_Writer`); only this process (the client) appends rows to ``OUT/manifest.jsonl``
 (:mod:`mi_npr.io.manifest`), one line per finished or failed job, so a kill at any moment
 leaves whole lines and whole output sets. ``resume`` skips a job only when its last row says
 ``done`` with the run's :func:`job_key` (scene content with every referenced file, settings,
@@ -38,6 +39,7 @@ import itertools
 import json
 import logging
 import os
+import queue
 import socket
 import stat
 import sys
@@ -314,7 +316,7 @@ LAUNCH_PARAMS: tuple[Param, ...] = (
         bool,
         True,
         "render the beauty with the scene's integrator (false: the G-buffer pass's headlight "
-        "shading, no extra render)",
+        "shading, no extra render, and no image under the SVG drawings)",
     ),
 )
 
@@ -516,43 +518,91 @@ def render_job(settings: BatchSettings, job: Job, attempt: int = 1) -> dict[str,
     its progress (:func:`_progress`) before each step, so the client can stop it when a step
     takes longer than its bound."""
 
+    row, files, t0 = _render_files(settings, job, attempt)
+    if files is not None:
+        _progress(settings)
+        _write_files(settings, job, row, *files)
+    return _finished(row, t0)
+
+
+def _render_files(
+    settings: BatchSettings, job: Job, attempt: int
+) -> tuple[dict[str, Any], tuple[Path, list[tuple[str, Any]]] | None, float]:
+    """The render of :func:`render_job` without the writing: its row (``failed``, with the
+    error, if the render failed), the folder and the files to write (numpy arrays and texts:
+    :func:`mi_npr.io.layered_files`; ``None`` after a failure), and its start time."""
+
     t0 = time.perf_counter()
     row = _row(settings, job, attempt, worker=_worker_name())
-    with _JOB_LOCK:
-        try:
-            _progress(settings)
-            _configure(settings)
-            session, cams = _scene(settings, job)
-            camera = cams[job.view]
-            row["camera"] = (camera or camera_of(session.sensor)).to_dict()
-            _progress(settings, _samples(session.sensor, session.spp))
-            launched = None
-            if settings.views_per_launch != 1 or not settings.beauty:
-                sensor, launched = _launched(settings, job, session, cams)
-            else:
-                sensor = _sensor(settings, session, job.view, camera)
-            result = render_layers(
-                session.scene,
-                settings.drawings,
-                dict(settings.params),
-                sensor=sensor,
-                spp=session.spp,
-                seed=settings.seed,
-                gbuffer=launched,
-            )
-            _progress(settings)
-            outdir = Path(settings.outdir) / ("" if settings.flat else job.stem)
-            written = io.write_layered_outputs(
-                result, outdir, job.view, line_color=settings.line_color, paper=settings.paper
-            )
-            row["outputs"] = [os.path.relpath(p, settings.outdir) for p in written]
-            row["sizes"] = [os.stat(p).st_size for p in written]
-            row["status"] = "done"
-            row["warning"] = _view_warning(job, result.gbuffer)
-        except NprError as e:
-            row["error"] = f"{job.id}: {one_line(e)}"
-        except Exception as e:
-            row["error"] = f"{job.id}: internal error: {type(e).__name__}: {one_line(e)}"
+    with _JOB_LOCK, _job_errors(job, row):
+        _progress(settings)
+        _configure(settings)
+        session, cams = _scene(settings, job)
+        camera = cams[job.view]
+        row["camera"] = (camera or camera_of(session.sensor)).to_dict()
+        _progress(settings, _samples(session.sensor, session.spp))
+        launched = None
+        if settings.views_per_launch != 1 or not settings.beauty:
+            sensor, launched = _launched(settings, job, session, cams)
+        else:
+            sensor = _sensor(settings, session, job.view, camera)
+        result = render_layers(
+            session.scene,
+            settings.drawings,
+            dict(settings.params),
+            sensor=sensor,
+            spp=session.spp,
+            seed=settings.seed,
+            gbuffer=launched,
+        )
+        outdir = check_writable_dir(
+            Path(settings.outdir) / ("" if settings.flat else job.stem), create=True
+        )
+        files = io.layered_files(
+            result,
+            outdir,
+            job.view,
+            line_color=settings.line_color,
+            paper=settings.paper,
+            # without a beauty there is nothing to lay under the SVG drawings
+            svg_image="embed" if settings.beauty else "none",
+        )
+        row["warning"] = _view_warning(job, result.gbuffer)
+        return row, (outdir, files), t0
+    return row, None, t0
+
+
+@contextlib.contextmanager
+def _job_errors(job: Job, row: dict[str, Any]) -> Any:
+    """A job's failure as its row's one-line ``error``, never raised."""
+    try:
+        yield
+    except NprError as e:
+        row["error"] = f"{job.id}: {one_line(e)}"
+    except Exception as e:
+        row["error"] = f"{job.id}: internal error: {type(e).__name__}: {one_line(e)}"
+
+
+def _write_files(
+    settings: BatchSettings,
+    job: Job,
+    row: dict[str, Any],
+    outdir: Path,
+    files: list[tuple[str, Any]],
+) -> None:
+    """Write a job's files all together (:func:`mi_npr.io.write_files`) and fill in its row:
+    ``done`` with the outputs and their sizes, or ``failed`` with the error. No Dr.Jit: it may
+    run in the batch's writer thread (:class:`_Writer`)."""
+    with _job_errors(job, row):
+        written = io.write_files(outdir, files)
+        row["outputs"] = [os.path.relpath(p, settings.outdir) for p in written]
+        row["sizes"] = [os.stat(p).st_size for p in written]
+        row["status"] = "done"
+    if row["status"] != "done":  # a failed job's row, as when its render fails
+        row.pop("warning", None)
+
+
+def _finished(row: dict[str, Any], t0: float) -> dict[str, Any]:
     row["seconds"] = round(time.perf_counter() - t0, 6)
     row["finished"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     return row
@@ -901,19 +951,113 @@ def _warn_left(
         )
 
 
+#: Jobs whose files wait for the batch's writer thread (:class:`_Writer`) at most, besides the
+#: one it is writing: the next views render meanwhile, and memory holds a few views' files.
+WRITE_AHEAD = 2
+#: Views of more pixels than this are written in line: their layers, copied for the writer,
+#: would hold as much memory as their render.
+WRITE_AHEAD_PIXELS = 1 << 20
+
+
+class _Writer:
+    """One thread that writes jobs' files (:func:`_write_files`: numpy, zlib, OpenEXR and
+    files, no Dr.Jit) while the batch's thread renders the next jobs; :meth:`submit` waits while
+    :data:`WRITE_AHEAD` jobs wait. The rows of the jobs written (``done``, or ``failed`` with
+    the error) come back to the batch's thread, in order, through :meth:`done`; only that
+    thread records them."""
+
+    def __init__(self, settings: BatchSettings) -> None:
+        self.settings = settings
+        self.todo: queue.Queue[Any] = queue.Queue(maxsize=WRITE_AHEAD)
+        self.rows: queue.Queue[tuple[Job, dict[str, Any]]] = queue.Queue()
+        self.thread = threading.Thread(target=self._run, name="mi-npr-writer", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while (item := self.todo.get()) is not None:
+            job, row, files, t0 = item
+            try:
+                _write_files(self.settings, job, row, *files)
+            except BaseException as e:  # whatever happens, the job's row goes back
+                row["status"] = "failed"
+                row["error"] = f"{job.id}: internal error: {type(e).__name__}: {one_line(e)}"
+            self.rows.put((job, _finished(row, t0)))
+
+    def submit(self, job: Job, row: dict[str, Any], files: Any, t0: float) -> None:
+        self.todo.put((job, row, files, t0))
+
+    def done(self) -> list[tuple[Job, dict[str, Any]]]:
+        """The jobs written since the last call, with their rows."""
+        out = []
+        with contextlib.suppress(queue.Empty):
+            while True:
+                out.append(self.rows.get_nowait())
+        return out
+
+    def close(self) -> list[tuple[Job, dict[str, Any]]]:
+        """Write what waits, stop the thread; :meth:`done`."""
+        self.todo.put(None)
+        self.thread.join()
+        return self.done()
+
+
+def _pixels(files: tuple[Path, list[tuple[str, Any]]]) -> int:
+    """The pixels of a job's EXR (the largest of its files)."""
+    return max(
+        (a.size for _, d in files[1] if isinstance(d, io.ExrImage) for a in d.channels.values()),
+        default=0,
+    )
+
+
 def _run_here(settings: BatchSettings, jobs: Sequence[Job], retries: int, record: Callable) -> None:
     """The batch in this process, job after job (``workers=0``); a thread cap holds for the
-    batch only."""
+    batch only. Each job's files are written by a :class:`_Writer` while the next jobs render
+    (in line above :data:`WRITE_AHEAD_PIXELS` pixels); a job is recorded once its files are in
+    place, or failed, after its ``retries`` (a job whose writing failed is rendered again)."""
 
     before = dr.thread_count()
+    writer: _Writer | None = None
+
+    def attempts(job: Job, first: int) -> dict[str, Any] | None:
+        """The job from attempt ``first`` on: its final row, or ``None`` when it went to the
+        writer (its row comes back through it)."""
+        nonlocal writer
+        for attempt in range(first, retries + 2):
+            row, files, t0 = _render_files(settings, job, attempt)
+            if files is not None and _pixels(files) <= WRITE_AHEAD_PIXELS:
+                if writer is None:
+                    writer = _Writer(settings)
+                writer.submit(job, row, files, t0)
+                return None
+            if files is not None:
+                _write_files(settings, job, row, *files)
+            _finished(row, t0)
+            if row["status"] == "done":
+                break
+        return row
+
+    def written(done: list[tuple[Job, dict[str, Any]]], retry: bool = True) -> None:
+        for job, row in done:
+            if retry and row["status"] != "done" and row["attempt"] <= retries:
+                again = attempts(job, row["attempt"] + 1)
+                if again is None:
+                    continue
+                row = again
+            record(row)
+
     try:
         for job in jobs:
-            for attempt in range(1, retries + 2):
-                row = render_job(settings, job, attempt)
-                if row["status"] == "done":
-                    break
-            record(row)
+            row = attempts(job, 1)
+            if row is not None:
+                record(row)
+            if writer is not None:
+                written(writer.done())
+        while writer is not None:  # the last jobs' files, and the retries they cause
+            last, writer = writer, None
+            written(last.close())
     finally:
+        if writer is not None:  # stopped by an error: what was rendered is written, recorded
+            written(writer.close(), retry=False)
         if settings.threads:
             dr.set_thread_count(before)
             _THREADS[0] = None

@@ -24,7 +24,8 @@ definition, so its face normals are used and its sharp edges are creases in the 
 
 **Beauty.** ``R G B`` (and ``<view>.png``) are the studio's ``direct`` render only when
 ``beauty`` is asked for; by default they are the G-buffer pass's headlight shading
-(:func:`mi_npr.render.render_gbuffer` without an integrator), which costs no render of its own.
+(:func:`mi_npr.render.render_gbuffer` without an integrator), which costs no render of its own,
+and the SVG drawings have no image under their strokes (with ``beauty``, the beauty, embedded).
 The views of a mesh are rendered ``views_per_launch`` at a time in one launch
 (:func:`mi_npr.render.render_views`): the files are those of one view at a time, bit for bit
 (a beauty render to its last bits: Mitsuba's film adds samples in its threads' order).
@@ -113,7 +114,7 @@ DATASET_PARAMS: tuple[Param, ...] = (
         batch.LAUNCH_PARAMS[1],
         default=False,
         doc="render the studio's beauty (direct illumination, spp samples); false: the "
-        "G-buffer pass's headlight shading",
+        "G-buffer pass's headlight shading and no image under the SVG drawings",
     ),
 )
 #: Formats Mitsuba loads itself.

@@ -194,7 +194,8 @@ def render_layers(
     if new:
         out.gbuffer = gb.with_layers(new).with_metadata(**meta)
     if vector:
-        out.strokes = stroke_layers(out.gbuffer)
+        # The lines drawing's layer is made of the scene's strokes below: no trace of its mask.
+        out.strokes = stroke_layers(out.gbuffer, lines="lines" not in on)
         if "lines" in on:
             with session.step("lines as strokes"):
                 out.strokes[LINES_SVG] = lines_as_strokes(

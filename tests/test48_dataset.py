@@ -463,3 +463,81 @@ def test17_an_stl_keeps_its_creases(tmp_path):
 
     core = binary_erosion(inside, iterations=3)
     assert ink[core].max() > 0.5
+
+
+def test_no_image_under_the_svg_without_a_beauty(made, tmp_path):
+    """Without a beauty the lines' SVG holds strokes only; with one, the beauty is embedded."""
+    out, rows = made
+    row = next(r for r in rows if r["view"] is not None and r["status"] == "done")
+    text = (out / row["files"]["lines.svg"]).read_text()
+    assert "<image" not in text and "<path" in text
+    mesh = tmp_path / "tet.obj"
+    mesh.write_text(TET)
+    got = D.make_dataset([mesh], tmp_path / "o", "random:1", width=24, height=24, spp=1,
+                         workers=0, progress=False, beauty=True)  # fmt: skip
+    assert "<image" in (tmp_path / "o" / got[0]["files"]["lines.svg"]).read_text()
+
+
+def test_a_failed_write_is_a_failed_row_and_is_retried(tmp_path, monkeypatch):
+    """The files are written by the batch's writer thread: a write that fails there leaves no
+    file of the view, its row says why, and a retry renders and writes the view again."""
+    import mi_npr.io
+
+    mesh = tmp_path / "tet.obj"
+    mesh.write_text(TET)
+    real, failed = mi_npr.io.write_png, set()
+
+    def flaky(path, *a, **k):  # random_001_lines.png fails once in each OUT
+        if os.path.basename(path) == "random_001_lines.png" and path not in failed:
+            failed.add(path)
+            raise mi_npr.errors.OutputError(f"{path}: cannot write (disk full)")
+        return real(path, *a, **k)
+
+    monkeypatch.setattr(mi_npr.io, "write_png", flaky)
+    kw = dict(width=24, height=24, spp=1, workers=0, progress=False, drawings=("lines",))
+    rows = D.make_dataset([mesh], tmp_path / "a", "random:3", **kw)
+    assert [r["status"] for r in rows] == ["done", "failed", "done"]
+    assert "random_001_lines.png: cannot write (disk full)" in rows[1]["error"]
+    assert not list((tmp_path / "a" / "tet").glob("random_001*"))
+    assert not [p for p in (tmp_path / "a" / "tet").iterdir() if p.name.startswith(".")]
+    rows = D.make_dataset([mesh], tmp_path / "b", "random:3", retries=1, **kw)
+    assert [r["status"] for r in rows] == ["done"] * 3
+    manifest = [json.loads(x) for x in (tmp_path / "b" / "manifest.jsonl").read_text().splitlines()]
+    assert sorted((m["job"], m["attempt"]) for m in manifest) == [
+        ("tet/random_000", 1), ("tet/random_001", 2), ("tet/random_002", 1)
+    ]  # fmt: skip
+    assert (tmp_path / "b" / "tet" / "random_001_lines.png").is_file()
+    resumed = D.make_dataset([mesh], tmp_path / "b", "random:3", resume=True, **kw)
+    assert [r["status"] for r in resumed] == ["done"] * 3
+    assert len((tmp_path / "b" / "manifest.jsonl").read_text().splitlines()) == 3  # none redone
+
+
+def test_output_sets_and_sweeps_are_per_thread(tmp_path):
+    """A file written in another thread while this thread holds an output set open is renamed
+    at once (it is no part of this thread's set), and a sweep of its folder leaves the other
+    thread's live temporary file alone."""
+    import threading
+
+    from mi_npr.io._atomic import atomic_output, clean_stale, output_set
+
+    inside, release, seen = threading.Event(), threading.Event(), []
+
+    def other():
+        with atomic_output(tmp_path / "b.txt") as tmp:
+            open(tmp, "w").write("b")
+            seen.append(tmp)
+            inside.set()
+            release.wait(10)
+
+    with output_set():
+        with atomic_output(tmp_path / "a.txt") as tmp:
+            open(tmp, "w").write("a")
+        t = threading.Thread(target=other)
+        t.start()
+        assert inside.wait(10)
+        assert clean_stale(tmp_path) == [] and os.path.exists(seen[0])
+        release.set()
+        t.join()
+        assert (tmp_path / "b.txt").read_text() == "b"  # renamed by its own thread
+        assert not (tmp_path / "a.txt").exists()  # this set's file waits for the set's end
+    assert (tmp_path / "a.txt").read_text() == "a"

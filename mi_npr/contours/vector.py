@@ -499,14 +499,14 @@ def near_polylines(
 
 
 def stroke_layers(
-    gb: GBuffer, tolerance: float = 0.25
+    gb: GBuffer, tolerance: float = 0.25, lines: bool = True
 ) -> dict[str, tuple[list[np.ndarray], tuple[float, float, float]]]:
     """The GBuffer's line drawings as SVG stroke layers: ``lines`` (the ``lines.V`` layer above
-    0.5, black) and each ray-tree edge class present (``edges_real``, ... in the overlay's
-    colours), each as polylines (:func:`trace_strokes`)."""
+    0.5, black; left out with ``lines=False``) and each ray-tree edge class present
+    (``edges_real``, ... in the overlay's colours), each as polylines (:func:`trace_strokes`)."""
 
     out: dict[str, tuple[list[np.ndarray], tuple[float, float, float]]] = {}
-    if L.LINES in gb:
+    if lines and L.LINES in gb:
         out[L.LINES.split(".")[0]] = (
             trace_strokes(gb.numpy(L.LINES) > 0.5, tolerance),
             (0.0, 0.0, 0.0),

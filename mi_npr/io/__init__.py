@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -12,7 +13,7 @@ from ..compose import INK, PAPER, lines_on_paper, raw_beauty
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
 from ._atomic import atomic_output, check_writable_dir, output_set
-from .exr import describe, read_exr, write_exr
+from .exr import ExrImage, describe, exr_image, read_exr, write_exr, write_exr_image
 from .png import linear_to_srgb, to_rgb8, write_png
 from .strokes import stroke_files, write_strokes
 from .svg import SVG_IMAGE, svg_document, write_contour_outputs, write_svg
@@ -67,19 +68,47 @@ def write_layered_outputs(
     the ``contours`` (``raytree``) command writes: that drawing's files, its EXR named
     ``<stem>_contours.exr`` (``_raytree``) with ``R G B`` holding the drawing, so the shorthands
     never overwrite ``render``'s files. Everything is computed before the first file is
-    written; the files are replaced all together or not at all (:func:`output_set`).
+    written; the files are replaced all together or not at all (:func:`output_set`). The same
+    as :func:`write_files` of :func:`layered_files`.
     """
+    d = check_writable_dir(outdir, create=True)
+    files = layered_files(
+        result, d, stem, only=only, line_color=line_color, paper=paper, svg_image=svg_image
+    )
+    return write_files(d, files)
+
+
+#: What :func:`write_files` writes for a file: an :class:`ExrImage` (EXR), a float or 8-bit
+#: image array (PNG), a text, or a function of no arguments that returns the text.
+FileData = Any
+
+
+def layered_files(
+    result: Any,
+    outdir: str | os.PathLike[str],
+    stem: str,
+    *,
+    only: str | None = None,
+    line_color: Sequence[float] | None = None,
+    paper: Sequence[float] | None = None,
+    svg_image: str = "embed",
+) -> list[tuple[str, FileData]]:
+    """The files of :func:`write_layered_outputs` as ``(name, data)`` (:data:`FileData`), taken
+    out of the render: numpy arrays and texts, nothing of Dr.Jit's, so that they can be encoded
+    and written in another thread (the SVG texts are built there, from numpy arrays).
+    ``outdir`` names the files in errors."""
 
     if svg_image not in SVG_IMAGE:
         raise ParameterError(f"svg_image = {svg_image!r}: must be one of {', '.join(SVG_IMAGE)}")
-    d = check_writable_dir(outdir, create=True)
     gb = result.gbuffer
     files: list[tuple[str, Any]] = []
     if only is not None:
-        files.append((f"{stem}_{only}.exr", result.drawing(only)))
+        name = f"{stem}_{only}.exr"
+        files.append((name, exr_image(Path(outdir) / name, result.drawing(only))))
         files.append((f"{stem}_{only}.png", result.pictures[only]))
     else:
-        files += [(f"{stem}.exr", gb), (f"{stem}.png", gb.beauty)]
+        exr = exr_image(Path(outdir) / f"{stem}.exr", gb)
+        files += [(f"{stem}.exr", exr), (f"{stem}.png", gb.beauty)]
         if L.LINES in gb:
             sheet = lines_on_paper(gb, INK if line_color is None else line_color, paper or PAPER)
             files.append((f"{stem}_lines.png", sheet))
@@ -90,7 +119,6 @@ def write_layered_outputs(
         if drawing is not None:  # the strokes drawing: SVG, JSON and ink on paper
             files += stroke_files(drawing, stem, gb.metadata.get("mi_npr/scene", stem))
     image: dict[str, Any] = {}
-    svgs: list[tuple[str, str]] = []
     drawn = [n for n in ("lines", "contours", "raytree") if only in (None, n)]
     strokes = result.strokes or {}
     wanted = {
@@ -114,39 +142,47 @@ def write_layered_outputs(
         if not present[name]:
             continue
         paths, layers = wanted[name]
-        svgs.append(
-            (
-                f"{stem}_{name}.svg",
-                svg_document(
-                    list(paths),
-                    gb.width,
-                    gb.height,
-                    color=color,
-                    stroke_width=float(meta.get("mi_npr/contour_line_width", "1")),
-                    title=meta.get("mi_npr/scene", stem),
-                    strokes=layers,
-                    **image,
-                ),
-            )
+        svg = functools.partial(
+            svg_document,
+            list(paths),
+            gb.width,
+            gb.height,
+            color=color,
+            stroke_width=float(meta.get("mi_npr/contour_line_width", "1")),
+            title=meta.get("mi_npr/scene", stem),
+            strokes=layers,
+            **image,
         )
+        files.append((f"{stem}_{name}.svg", svg))
+    return files
+
+
+def write_files(
+    outdir: str | os.PathLike[str], files: Sequence[tuple[str, FileData]]
+) -> list[Path]:
+    """Write ``files`` (:func:`layered_files`) into ``outdir`` all together or none of them
+    (:func:`output_set`); their paths, in order."""
+    d = Path(outdir)
+    texts = [(n, v()) if callable(v) else (n, v) for n, v in files]  # every text before a file
     out = []
     with output_set():  # every file together, or none of them
-        for name, data in files:
-            if name.endswith(".exr"):
-                out.append(write_exr(d / name, data))
+        for name, data in texts:
+            if isinstance(data, ExrImage):
+                out.append(write_exr_image(d / name, data))
             elif isinstance(data, str):
                 out.append(write_text(d / name, data))
             else:
                 out.append(write_png(d / name, data))
-        for name, text in svgs:
-            out.append(write_text(d / name, text))
     return out
 
 
 __all__ = [
+    "ExrImage",
     "atomic_output",
     "check_writable_dir",
     "describe",
+    "exr_image",
+    "layered_files",
     "linear_to_srgb",
     "output_set",
     "read_exr",
@@ -154,6 +190,8 @@ __all__ = [
     "to_rgb8",
     "write_contour_outputs",
     "write_exr",
+    "write_exr_image",
+    "write_files",
     "write_layered_outputs",
     "write_outputs",
     "write_png",

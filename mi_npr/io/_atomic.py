@@ -23,6 +23,7 @@ import re
 import socket
 import stat
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -87,8 +88,13 @@ STALE_AFTER = 3600.0
 
 #: This process's temporary files not yet renamed into place (removed at exit, on SIGTERM).
 _LIVE: set[str] = set()
-#: Open output sets (:func:`output_set`), innermost last: their (temp, target) pairs.
-_SETS: list[list[tuple[str, Path]]] = []
+#: Held from a temporary file's creation to its entry in :data:`_LIVE`, and by a sweep from
+#: its look into :data:`_LIVE` to the removal: a sweep in one thread never takes the file
+#: another thread has just created for itself as a leftover of this process.
+_LIVE_LOCK = threading.RLock()
+#: Open output sets (:func:`output_set`) of each thread, innermost last: their (temp, target)
+#: pairs (a thread's files never join another thread's set).
+_THREAD = threading.local()
 #: Directories already swept for stale temporary files by this process.
 _SWEPT: set[str] = set()
 # ".NAME.PID.OWNER.XXXXXXXX.tmp" (this version), ".NAME.PID.XXXXXXXX.tmp" and
@@ -139,30 +145,41 @@ def clean_stale(directory: str | os.PathLike[str]) -> list[Path]:
         return removed
     for e in entries:
         pid = temp_name_pid(e.name)
-        if pid is False or e.path in _LIVE:
+        if pid is False:
             continue
-        try:
-            if not e.is_file(follow_symlinks=False):
+        with _LIVE_LOCK:
+            if e.path in _LIVE:
                 continue
-            ours = pid is not None and temp_name_owner(e.name) == OWNER
-            stale = (not _alive(pid) or pid == os.getpid()) if ours else False
-            if stale or time.time() - e.stat(follow_symlinks=False).st_mtime >= STALE_AFTER:
-                os.unlink(e.path)
-                removed.append(Path(e.path))
-        except OSError:
-            continue
+            try:
+                if not e.is_file(follow_symlinks=False):
+                    continue
+                ours = pid is not None and temp_name_owner(e.name) == OWNER
+                stale = (not _alive(pid) or pid == os.getpid()) if ours else False
+                if stale or time.time() - e.stat(follow_symlinks=False).st_mtime >= STALE_AFTER:
+                    os.unlink(e.path)
+                    removed.append(Path(e.path))
+            except OSError:
+                continue
     return removed
 
 
 def remove_live_temps() -> None:
     """Remove every temporary file of this process that was not renamed (exit, SIGTERM)."""
-    for tmp in list(_LIVE):
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        _LIVE.discard(tmp)
+    with _LIVE_LOCK:
+        for tmp in list(_LIVE):
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            _LIVE.discard(tmp)
 
 
 atexit.register(remove_live_temps)
+
+
+def _sets() -> list[list[tuple[str, Path]]]:
+    """This thread's open output sets."""
+    if not hasattr(_THREAD, "sets"):
+        _THREAD.sets = []
+    return _THREAD.sets
 
 
 @contextlib.contextmanager
@@ -170,20 +187,21 @@ def output_set() -> Iterator[None]:
     """Every :func:`atomic_output` inside the block is renamed into place at its end, all
     together, or none of them (their temporary files removed) if the block fails: an output set
     (EXR, PNGs, SVG, XML) never mixes two runs. Nested sets join the outermost one."""
+    sets = _sets()
     batch: list[tuple[str, Path]] = []
-    _SETS.append(batch)
+    sets.append(batch)
     try:
         yield
     except BaseException:
-        _SETS.pop()
+        sets.pop()
         for tmp, _ in batch:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
             _LIVE.discard(tmp)
         raise
-    _SETS.pop()
-    if _SETS:
-        _SETS[-1].extend(batch)
+    sets.pop()
+    if sets:
+        sets[-1].extend(batch)
         return
     try:
         for tmp, target in batch:
@@ -210,23 +228,27 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[str]:
     check_writable_dir(parent)
     _check_target(target)
     key = os.path.realpath(parent)
-    if key not in _SWEPT:
+    with _LIVE_LOCK:
+        sweep = key not in _SWEPT
         _SWEPT.add(key)
+    if sweep:
         clean_stale(parent)
-    try:
-        fd, tmp = tempfile.mkstemp(
-            prefix=f".{target.name}.{os.getpid()}.{OWNER}.", suffix=".tmp", dir=parent
-        )
-    except OSError as e:
-        raise OutputError(f"{target}: cannot write ({e.strerror or e})") from None
+    with _LIVE_LOCK:  # created and listed as live before any sweep can look at it
+        try:
+            fd, tmp = tempfile.mkstemp(
+                prefix=f".{target.name}.{os.getpid()}.{OWNER}.", suffix=".tmp", dir=parent
+            )
+        except OSError as e:
+            raise OutputError(f"{target}: cannot write ({e.strerror or e})") from None
+        _LIVE.add(tmp)
     os.close(fd)
-    _LIVE.add(tmp)
     deferred = False
+    sets = _sets()
     try:
         yield tmp
         os.chmod(tmp, _FILE_MODE)
-        if _SETS:
-            _SETS[-1].append((tmp, target))
+        if sets:
+            sets[-1].append((tmp, target))
             deferred = True
         else:
             os.replace(tmp, target)

@@ -43,6 +43,7 @@ import json
 import os
 import sys
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -119,22 +120,44 @@ def _threads() -> None:
             _threads_set[:] = [n]
 
 
-def write_exr(path: str | os.PathLike[str], gbuffer: GBuffer) -> Path:
-    """Write every layer of ``gbuffer`` to ``path`` (atomically). Returns the path."""
+@dataclass(frozen=True)
+class ExrImage:
+    """What :func:`write_exr` writes, taken out of a :class:`~mi_npr.gbuffer.GBuffer`: the
+    header and the channels as numpy arrays (copies), so that the file can be encoded later,
+    in another thread, without Dr.Jit (:func:`exr_image`, :func:`write_exr_image`)."""
+
+    header: dict[str, Any]
+    channels: dict[str, np.ndarray]
+
+
+def exr_image(path: str | os.PathLike[str], gbuffer: GBuffer) -> ExrImage:
+    """The header and channels of ``gbuffer``'s EXR at ``path`` (the name is for errors: an
+    id too large for a ``FLOAT`` channel names the file)."""
     if not isinstance(gbuffer, GBuffer):
         raise TypeError(f"write_exr expects a GBuffer, got {type(gbuffer).__name__}")
     target = as_path(path, "output file")
     layers = {k: gbuffer.numpy(k) for k in gbuffer.names}
-    channels = {k: _file_layer(target, k, v) for k, v in layers.items()}
+    channels = {k: np.array(_file_layer(target, k, v), copy=True) for k, v in layers.items()}
     header = _header(gbuffer)
     ints = [k for k, v in layers.items() if v.dtype != channels[k].dtype]
     if ints:
         header[_INTEGER] = json.dumps(ints)
+    return ExrImage(header, channels)
+
+
+def write_exr_image(path: str | os.PathLike[str], image: ExrImage) -> Path:
+    """Write an :class:`ExrImage` to ``path`` (atomically). Returns the path."""
+    target = as_path(path, "output file")
     _threads()
     with atomic_output(target) as tmp:
-        with OpenEXR.File(header, channels) as f:
+        with OpenEXR.File(image.header, image.channels) as f:
             f.write(tmp)
     return target
+
+
+def write_exr(path: str | os.PathLike[str], gbuffer: GBuffer) -> Path:
+    """Write every layer of ``gbuffer`` to ``path`` (atomically). Returns the path."""
+    return write_exr_image(path, exr_image(path, gbuffer))
 
 
 def _order(names: list[str], stored: str | None) -> list[str]:
