@@ -127,6 +127,42 @@ def test02_gradients_match_finite_differences_of_the_render(key, d, channel):
         assert grad < 0.0  # moving away, the outline shrinks: less ink
 
 
+@pytest.mark.parametrize(
+    ("key", "d"),
+    [
+        ("ball.to_world", (0.0, 0.0, 1.0)),  # the sphere moves away
+        ("ball.to_world", (1.0, 0.0, 0.0)),  # the sphere moves sideways
+        ("sensor.to_world", (0.5, 0.3, 0.0)),  # the camera moves sideways and up
+        ("sensor.to_world", (0.0, 0.0, 1.0)),  # the camera moves forward
+    ],
+)
+def test02b_a_unit_sphere_matches_finite_differences_too(key, d):
+    """A sphere of radius 1 (the depth scale, its bounding-box diagonal, over the outline's
+    depth is ~0.7, twice test02's), 8 x 8 samples a pixel: the rendered channel's gradient
+    against the same central finite difference."""
+    ball = {"type": "sphere", "radius": 1.0, "bsdf": {"type": "diffuse"}}
+    scene = _scene(ball, line_aa=8)
+    params = mi.traverse(scene)
+    move = _translate(params, key, d)
+    weights = _weights()
+
+    def loss(v):
+        move(v)
+        return dr.sum(_channel(mi.render(scene, params=params, spp=1, seed=1), LINES) * weights)
+
+    v = mi.Float(0.0)
+    dr.enable_grad(v)
+    dr.backward(loss(v))
+    grad = float(dr.grad(v)[0])
+    eps = 0.1
+    fd = (float(loss(mi.Float(eps))[0]) - float(loss(mi.Float(-eps))[0])) / (2 * eps)
+    move(mi.Float(0.0))
+    assert abs(fd) > 20.0  # the motion changes the drawing
+    assert grad == pytest.approx(fd, rel=0.05)
+    if key == "ball.to_world" and d[2]:
+        assert grad < 0.0  # moving away, the outline shrinks: less ink
+
+
 def test03_an_adam_loop_fits_a_translation():
     """Mitsuba's tutorial loop (``mi.ad.Adam``, ``params.update(opt)``, ``dr.backward``) on a
     box's vertices, towards the lines of the box moved by (0.15, 0.1, 0)."""
