@@ -165,7 +165,7 @@ def _capsules(
 
 
 #: Pixel tests per batch of :func:`_capsules` (memory bound).
-CHUNK = 1 << 22
+CHUNK = 1 << 20
 
 
 def _coverage(
