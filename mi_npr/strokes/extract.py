@@ -61,7 +61,7 @@ def _film_param_to_3d(u: np.ndarray, wa: np.ndarray, wb: np.ndarray) -> np.ndarr
 
 
 #: Feature edges whose samples are cast at once (bounds the memory of the samples).
-EDGE_CHUNK = 1 << 17
+EDGE_CHUNK = 1 << 18
 
 
 def _split(

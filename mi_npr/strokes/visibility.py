@@ -36,8 +36,8 @@ from ..scene import ObjectTable
 EPSILON = 1e-4
 #: Most glass or null surfaces one ray passes through.
 MAX_PASSES = 8
-#: Rays cast in one launch (the loop's state per ray is ~100 bytes: memory bound).
-RAYS = 1 << 19
+#: Rays cast in one launch (the loop's state and inputs are ~40 bytes a ray: memory bound).
+RAYS = 1 << 22
 
 
 def jit_array(kind: type, a: np.ndarray) -> object:
@@ -216,8 +216,6 @@ class SegmentVisibility:
         i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
         uu = jit_array(mi.Float, np.asarray(u, np.float32))
         o, p, d, dist, own = self._points(i, uu)
-        # the inputs evaluated apart: the loop's kernel stays the same from call to call
-        dr.eval(o, p, d, dist, own)
         qi, glass = _count(self.scene, self.table, o, p, d, dist, own, self.max_qi)
         return np.asarray(qi.numpy(), np.int32), np.asarray(glass.numpy(), bool)
 
