@@ -94,18 +94,9 @@ def _translate(params, key: str, d: tuple[float, float, float]):
     return move
 
 
-@pytest.mark.parametrize(
-    ("key", "d", "channel"),
-    [
-        ("ball.to_world", (0.0, 0.0, 1.0), LINES),  # the sphere moves away
-        ("ball.to_world", (1.0, 0.0, 0.0), LINES),  # the sphere moves sideways
-        ("sensor.to_world", (0.5, 0.3, 0.0), LINES),  # the camera moves sideways and up
-        ("sensor.to_world", (0.0, 0.0, 1.0), LINES),  # the camera moves forward
-        ("ball.to_world", (0.0, 0.0, 1.0), RED),  # the lines composited onto the beauty
-    ],
-)
-def test02_gradients_match_finite_differences_of_the_render(key, d, channel):
-    scene = _scene()
+def _gradient_and_difference(scene, key: str, d, channel) -> tuple[float, float]:
+    """``dr.backward``'s gradient of a weighted sum of the rendered ``channel`` along the
+    translation ``d`` of ``key``, and the central finite difference of the same (step 0.1)."""
     params = mi.traverse(scene)
     move = _translate(params, key, d)
     weights = _weights()
@@ -121,6 +112,21 @@ def test02_gradients_match_finite_differences_of_the_render(key, d, channel):
     eps = 0.1
     fd = (float(loss(mi.Float(eps))[0]) - float(loss(mi.Float(-eps))[0])) / (2 * eps)
     move(mi.Float(0.0))
+    return grad, fd
+
+
+@pytest.mark.parametrize(
+    ("key", "d", "channel"),
+    [
+        ("ball.to_world", (0.0, 0.0, 1.0), LINES),  # the sphere moves away
+        ("ball.to_world", (1.0, 0.0, 0.0), LINES),  # the sphere moves sideways
+        ("sensor.to_world", (0.5, 0.3, 0.0), LINES),  # the camera moves sideways and up
+        ("sensor.to_world", (0.0, 0.0, 1.0), LINES),  # the camera moves forward
+        ("ball.to_world", (0.0, 0.0, 1.0), RED),  # the lines composited onto the beauty
+    ],
+)
+def test02_gradients_match_finite_differences_of_the_render(key, d, channel):
+    grad, fd = _gradient_and_difference(_scene(), key, d, channel)
     assert abs(fd) > 10.0  # the motion changes the drawing
     assert grad == pytest.approx(fd, rel=0.05)
     if key == "ball.to_world" and d[2] and channel == LINES:
@@ -141,22 +147,7 @@ def test02b_a_unit_sphere_matches_finite_differences_too(key, d):
     depth is ~0.7, twice test02's), 8 x 8 samples a pixel: the rendered channel's gradient
     against the same central finite difference."""
     ball = {"type": "sphere", "radius": 1.0, "bsdf": {"type": "diffuse"}}
-    scene = _scene(ball, line_aa=8)
-    params = mi.traverse(scene)
-    move = _translate(params, key, d)
-    weights = _weights()
-
-    def loss(v):
-        move(v)
-        return dr.sum(_channel(mi.render(scene, params=params, spp=1, seed=1), LINES) * weights)
-
-    v = mi.Float(0.0)
-    dr.enable_grad(v)
-    dr.backward(loss(v))
-    grad = float(dr.grad(v)[0])
-    eps = 0.1
-    fd = (float(loss(mi.Float(eps))[0]) - float(loss(mi.Float(-eps))[0])) / (2 * eps)
-    move(mi.Float(0.0))
+    grad, fd = _gradient_and_difference(_scene(ball, line_aa=8), key, d, LINES)
     assert abs(fd) > 20.0  # the motion changes the drawing
     assert grad == pytest.approx(fd, rel=0.05)
     if key == "ball.to_world" and d[2]:
