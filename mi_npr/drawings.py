@@ -28,7 +28,7 @@ from . import layers as L
 from .ad.fit import require_ad
 from .ad.visibility import soft_lines
 from .antialias import aa_factor, antialiased_lines, check_aa_width
-from .compose import over_raw, with_overlay
+from .compose import over_raw, raw_beauty_layers, with_overlay
 from .contours.idmode import ID_MODES, OBJECT_MODES, IdMap, id_map
 from .contours.overlay import overlay as contour_overlay
 from .contours.trace import METHODS
@@ -148,6 +148,100 @@ def object_ids(scene: Any, table: Any, params: Mapping[str, Any]) -> IdMap:
     )
 
 
+# ------------------------------------------------------------------------------ soft models
+
+
+@dataclass(frozen=True)
+class SoftModel:
+    """A drawing's differentiable form: its layer is :func:`mi_npr.ad.soft_lines` of the
+    sensor at its film's size, on when the parameter :attr:`switch` is ``'soft'``, so that
+    ``dr.backward`` through ``mi.render(scene, params=params)`` carries the interior and
+    boundary terms of silhouettes and occlusion boundaries that move."""
+
+    #: The parameter that picks the model (``line_model``); ``'soft'`` turns this one on.
+    switch: str
+    #: The layer it draws (an (H, W) float image in [0, 1]).
+    layer: str
+    #: The parameters it takes besides :attr:`switch`; the drawing's others are refused.
+    takes: tuple[str, ...]
+    #: The parameter holding the colour it is composited in.
+    color: str
+    #: Samples a pixel side: the parameter holding it, or the number itself.
+    aa: str | int
+    #: Its metadata key (``mi_npr/lines``): the parameters it was drawn with, as JSON.
+    meta: str
+    #: Keywords of :func:`~mi_npr.ad.soft_lines` that pick its features (``depth_weight``).
+    features: tuple[tuple[str, float], ...] = ()
+
+
+def soft_model(params: Mapping[str, Any]) -> SoftModel | None:
+    """The soft model that ``params`` (one drawing's) turn on, or ``None``."""
+    return next((m for m in SOFT_MODELS if params.get(m.switch) == "soft"), None)
+
+
+def _check_soft(model: SoftModel, table: Sequence[Param], values: Mapping[str, Any], who: str):
+    """A soft model needs an AD variant and takes none of the exact model's parameters: one
+    set away from its default would be ignored, so it is refused."""
+    require_ad(f"{who}: {model.switch} = 'soft'")
+    exact = next(p.default for p in table if p.name == model.switch)
+    for p in table:
+        if (
+            p.name not in (model.switch, *model.takes)
+            and values.get(p.name, p.default) != p.default
+        ):
+            raise ParameterError(
+                f"{who}: parameter {p.name!r} belongs to {model.switch} = {exact!r}; "
+                f"{model.switch} = 'soft' takes {', '.join(model.takes)}"
+            )
+
+
+def soft_image(
+    model: SoftModel,
+    scene: Any,
+    sensor: Any,
+    params: Mapping[str, Any],
+    depth_scale: float | None = None,
+) -> Any:
+    """The layer of the soft ``model``, an (H, W) ``TensorXf`` with its gradients:
+    :func:`mi_npr.ad.soft_lines` of ``sensor`` at its film's size with the model's features,
+    ``aa`` samples a pixel side and a filter of ``sigma = line_width / 2`` pixels (its band is
+    about ``2 sigma`` wide). ``depth_scale``: the length that makes depths unitless (``None``:
+    the scene's bounding-box diagonal now). The film must have no crop window (the soft lines
+    are drawn over the whole film)."""
+    film = sensor.film()
+    size, crop = (tuple(int(v) for v in f) for f in (film.size(), film.crop_size()))
+    if size != crop or any(int(v) for v in film.crop_offset()):
+        raise ParameterError(
+            f"{model.switch} = 'soft' draws the whole film: its crop window "
+            f"{crop[0]}x{crop[1]} of {size[0]}x{size[1]} is not supported"
+        )
+    return soft_lines(
+        scene,
+        sensor,
+        size,
+        n=params[model.aa] if isinstance(model.aa, str) else model.aa,
+        sigma=0.5 * params["line_width"],
+        depth_scale=depth_scale,
+        **dict(model.features),
+    )
+
+
+def _draw_soft(
+    model: SoftModel,
+    session: SceneSession,
+    gb: GBuffer,
+    params: Mapping[str, Any],
+    depth_scale: float | None,
+) -> Drawn:
+    """:func:`soft_image` composited in the model's colour onto ``R G B``, as the exact
+    model's drawing is."""
+    ink = soft_image(model, session.scene, session.sensor, params, depth_scale)
+    names = (model.switch, *model.takes)
+    meta = json.dumps({k: params[k] for k in names if k != model.color})
+    gb = gb.with_layers({model.layer: ink}).with_metadata(**{model.meta: meta})
+    return Drawn(with_overlay(gb, ink, params[model.color]))
+
+
 # ----------------------------------------------------------------------------------- lines
 
 #: Rays per pixel side of the anti-aliased lines: 3 x 3 leaves about a fifth of the error of
@@ -159,8 +253,18 @@ LINE_AA_DEFAULT = 3
 #: :func:`mi_npr.ad.soft_lines` whose gradients include silhouettes that move.
 LINE_MODELS = ("thesis", "soft")
 
+#: The ``soft`` line model: every feature of :func:`mi_npr.ad.soft_lines` (ids, depth, normal).
+SOFT_LINES = SoftModel(
+    "line_model",
+    L.LINES,
+    ("line_width", "line_aa", "line_color"),
+    "line_color",
+    "line_aa",
+    "mi_npr/lines",
+)
+
 #: The parameters that the ``soft`` line model takes; the others are the thesis model's.
-SOFT_PARAMS = ("line_model", "line_width", "line_aa", "line_color")
+SOFT_PARAMS = (SOFT_LINES.switch, *SOFT_LINES.takes)
 
 LINES_TABLE: tuple[Param, ...] = (
     Param(
@@ -180,22 +284,10 @@ LINES_TABLE: tuple[Param, ...] = (
 
 def _check_lines(values: Mapping[str, Any], who: str) -> None:
     if values.get("line_model", "thesis") == "soft":
-        _check_soft(values, who)
+        _check_soft(SOFT_LINES, LINES_TABLE, values, who)
         return
     check_range(values["near"], values["far"], who)
     check_aa_width(values["line_width"], values["line_aa"], who)
-
-
-def _check_soft(values: Mapping[str, Any], who: str) -> None:
-    """The soft line model needs an AD variant and takes none of the thesis model's
-    parameters: one set away from its default would be ignored, so it is refused."""
-    require_ad(f"{who}: line_model = 'soft'")
-    for p in LINES_TABLE:
-        if p.name not in SOFT_PARAMS and values.get(p.name, p.default) != p.default:
-            raise ParameterError(
-                f"{who}: parameter {p.name!r} belongs to line_model = 'thesis'; "
-                f"line_model = 'soft' takes {', '.join(SOFT_PARAMS[1:])}"
-            )
 
 
 def _draw_lines(
@@ -208,10 +300,10 @@ def _draw_lines(
 ) -> Drawn:
     """The ``lines`` layer of the ``npr_lines`` parameters (all of them, checked), composited
     in ``line_color`` onto ``R G B`` (the raw beauty kept). ``depth_scale``: that of the soft
-    model (:func:`_draw_soft_lines`)."""
+    model (:func:`soft_image`)."""
     scene, sensor = session.scene, session.sensor
     if params.get("line_model") == "soft":
-        return _draw_soft_lines(session, gb, params, depth_scale)
+        return _draw_soft(SOFT_LINES, session, gb, params, depth_scale)
     chain = {p.name: params[p.name] for p in LINES_PARAMS}
     if chain["leaf_edges"] and L.LEAF_ID not in gb:
         gb = gb.with_layers({L.LEAF_ID: leaf_id_layer(scene, gb)})
@@ -224,51 +316,47 @@ def _draw_lines(
     return Drawn(with_overlay(gb, ink, params["line_color"]))
 
 
-def soft_line_image(
-    scene: Any, sensor: Any, params: Mapping[str, Any], depth_scale: float | None = None
-) -> Any:
-    """The ``lines`` layer of ``line_model = 'soft'``, an (H, W) ``TensorXf`` with its
-    gradients: :func:`mi_npr.ad.soft_lines` of ``sensor`` at its film's size, ``line_aa``
-    samples a pixel side and a filter of ``sigma = line_width / 2`` pixels (its band is about
-    ``2 sigma`` wide). ``depth_scale``: the length that makes depths unitless (``None``: the
-    scene's bounding-box diagonal now). The film must have no crop window (the soft lines
-    are drawn over the whole film)."""
-    film = sensor.film()
-    size, crop = (tuple(int(v) for v in f) for f in (film.size(), film.crop_size()))
-    if size != crop or any(int(v) for v in film.crop_offset()):
-        raise ParameterError(
-            f"line_model = 'soft' draws the whole film: its crop window {crop[0]}x{crop[1]} "
-            f"of {size[0]}x{size[1]} is not supported"
-        )
-    return soft_lines(
-        scene,
-        sensor,
-        size,
-        n=params["line_aa"],
-        sigma=0.5 * params["line_width"],
-        depth_scale=depth_scale,
-    )
-
-
-def _draw_soft_lines(
-    session: SceneSession, gb: GBuffer, params: Mapping[str, Any], depth_scale: float | None
-) -> Drawn:
-    """:func:`soft_line_image` composited in ``line_color`` onto ``R G B``, as the thesis
-    model's lines are."""
-    ink = soft_line_image(session.scene, session.sensor, params, depth_scale)
-    meta = json.dumps({k: params[k] for k in SOFT_PARAMS if k != "line_color"})
-    gb = gb.with_layers({L.LINES: ink}).with_metadata(**{"mi_npr/lines": meta})
-    return Drawn(with_overlay(gb, ink, params["line_color"]))
-
-
 # -------------------------------------------------------------------------------- contours
 
+#: What draws the contours: ``exact``, every contour traced on the pixel-centre ids
+#: (:func:`mi_npr.contours.overlay.overlay`), or ``soft``, the object outlines of
+#: :func:`mi_npr.ad.soft_lines` (its id feature alone) whose gradients include outlines that move.
+CONTOUR_MODELS = ("exact", "soft")
+
+#: Samples a pixel side of the soft contours (:func:`mi_npr.ad.soft_lines`' default).
+SOFT_CONTOUR_AA = 4
+
+#: The ``soft`` contour model: the id feature alone, i.e. every object's outline against the
+#: background and the other objects (apparent contours and occlusion boundaries between objects).
+SOFT_CONTOURS = SoftModel(
+    "contour_model",
+    L.CONTOUR_INK,
+    ("line_width", "color"),
+    "color",
+    SOFT_CONTOUR_AA,
+    "mi_npr/contours",
+    (("depth_weight", 0.0), ("normal_weight", 0.0)),
+)
+
 CONTOURS_TABLE: tuple[Param, ...] = (
+    Param(
+        "contour_model",
+        str,
+        "exact",
+        "exact (traced on the pixel ids) or soft (differentiable: outlines that move have "
+        "gradients)",
+        one_of(CONTOUR_MODELS),
+    ),
     Param("method", str, "border", "border or code_direction", one_of(METHODS)),
     *selection_params(ID_MODES),
     Param("color", tuple, (1.0, 0.0, 0.0), "linear RGB of the contours", rgb_color),
     Param("line_width", float, 1.0, "width of the drawn contours, in pixels", line_width),
 )
+
+
+def _check_contours(values: Mapping[str, Any], who: str) -> None:
+    if values.get("contour_model", "exact") == "soft":
+        _check_soft(SOFT_CONTOURS, CONTOURS_TABLE, values, who)
 
 
 def _draw_contours(
@@ -277,11 +365,17 @@ def _draw_contours(
     p: Mapping[str, Any],
     *,
     vector: bool = False,
+    depth_scale: float | None = None,
     **_: Any,
 ) -> Drawn:
     """Every contour of every selected object traced and drawn over the raw beauty; with
-    ``vector`` also their vector paths on the true outline (rays cast into the scene)."""
+    ``vector`` also their vector paths on the true outline (rays cast into the scene). With
+    ``contour_model = 'soft'``: the ``contour_ink.V`` layer of :data:`SOFT_CONTOURS` drawn over
+    the raw beauty instead (no traced or vector contours)."""
     s, sensor = session.scene, session.sensor
+    if p.get("contour_model") == "soft":
+        raw = gb.with_layers(raw_beauty_layers(gb))
+        return _draw_soft(SOFT_CONTOURS, session, raw, p, depth_scale)
     drawn, contours = contour_overlay(
         gb,
         s,
@@ -301,6 +395,10 @@ def _draw_contours(
                 ids, objects=idm.names, ids_at=RayIds(s, sensor, id_map=idm)
             )
     return Drawn(drawn, extras)
+
+
+#: The soft models, one a drawing (:func:`soft_model`).
+SOFT_MODELS = (SOFT_LINES, SOFT_CONTOURS)
 
 
 # --------------------------------------------------------------------------------- raytree
@@ -399,6 +497,7 @@ DRAWINGS: dict[str, Drawing] = {
             "the apparent contours of the real objects, in red over the beauty",
             CONTOURS_TABLE,
             _draw_contours,
+            check=_check_contours,
         ),
         Drawing(
             "raytree",

@@ -18,7 +18,8 @@ algorithm: the drawing's function serves the CLI, batches and notebooks too.
 Under ``mi.render(scene, params=params)``, ``dr.forward`` and ``dr.backward`` run Mitsuba's
 ``render_forward`` and :meth:`NprIntegrator.render_backward`: automatic differentiation of
 :meth:`~NprIntegrator.render`, except that a gradient on the soft lines channel alone
-(``npr_lines`` with ``line_model = 'soft'``) differentiates those lines alone.
+(``npr_lines`` with ``line_model = 'soft'``, ``npr_contours`` with ``contour_model = 'soft'``)
+differentiates those lines alone.
 
 Mitsuba binds Python integrators to the variant active when the class is defined, which is why
 this module is reloaded by :func:`mi_npr._variant.register_plugins` on every variant change.
@@ -35,7 +36,7 @@ import numpy as np
 
 from . import cryptomatte
 from . import layers as L
-from .drawings import DRAWINGS, Drawing, soft_line_image
+from .drawings import DRAWINGS, Drawing, soft_image, soft_model
 from .errors import ParameterError
 from .gbuffer import GBuffer
 from .params import Param, read_props
@@ -194,7 +195,7 @@ class NprIntegrator(mi.SamplingIntegrator):
         if self.DRAWING is None:
             return gb
         extra = {}
-        if self.params.get("line_model") == "soft":
+        if soft_model(self.params) is not None:
             extra["depth_scale"] = self.depth_scale(session.scene)
         return self.DRAWING.draw(session, gb, self.params, **extra).gbuffer
 
@@ -265,8 +266,9 @@ class NprIntegrator(mi.SamplingIntegrator):
     ) -> None:
         """The adjoint of :meth:`render`, which ``dr.backward`` runs through
         ``mi.render(scene, params=params)``: ``grad_in`` (the image's shape) propagated to the
-        scene parameters. With ``line_model = 'soft'`` and a gradient on the ``lines.V``
-        channel alone (a loss on the drawing), only the soft lines are differentiated (their
+        scene parameters. With a soft model (``line_model`` or ``contour_model = 'soft'``) and
+        a gradient on its channel alone (``lines.V``, ``contour_ink.V``: a loss on the
+        drawing), only the soft lines are differentiated (their
         interior and boundary terms, :mod:`mi_npr.ad.visibility`); otherwise the whole
         :meth:`render` is, by automatic differentiation (Mitsuba's default, as
         :meth:`render_forward` always is)."""
@@ -278,20 +280,21 @@ class NprIntegrator(mi.SamplingIntegrator):
                 image = self.render(scene, sensor, seed, spp)
                 dr.backward_from((image * grad_in).array)
             return
-        ink = soft_line_image(scene, sensor, self.params, self.depth_scale(scene))
+        model = soft_model(self.params)
+        ink = soft_image(model, scene, sensor, self.params, self.depth_scale(scene))
         c = int(grad_in.shape[2])
         n = dr.width(ink.array)
         g = dr.gather(mi.Float, grad_in.array, dr.arange(mi.UInt32, n) * c + k)
         dr.backward_from(ink.array * g)
 
     def _soft_channel(self, grad_in: mi.TensorXf) -> int | None:
-        """The index of ``lines.V`` in ``grad_in``'s channels when the soft line model is on
-        and no other channel has a gradient, else ``None``."""
-        aovs = self.aov_names()
-        if self.params.get("line_model") != "soft" or L.LINES not in aovs:
+        """The index of the soft model's layer in ``grad_in``'s channels when a soft model is
+        on and no other channel has a gradient, else ``None``."""
+        aovs, model = self.aov_names(), soft_model(self.params)
+        if model is None or model.layer not in aovs:
             return None
         c = int(grad_in.shape[2])
-        k = c - len(aovs) + aovs.index(L.LINES)  # R G B (A) come first
+        k = c - len(aovs) + aovs.index(model.layer)  # R G B (A) come first
         ch = dr.arange(mi.UInt32, dr.width(grad_in.array)) % c
         others = dr.any((grad_in.array != 0.0) & (ch != k))
         return None if bool(others[0] if dr.is_array_v(others) else others) else k

@@ -52,6 +52,8 @@ LINES = "lines.V"
 #: Coverage of the styled vector strokes (mi_npr.strokes).
 STROKES = "strokes.V"
 CONTOUR = "contour.V"
+#: Ink in [0, 1] of the soft (differentiable) contours, ``contour_model = "soft"``.
+CONTOUR_INK = "contour_ink.V"
 EDGES_REAL = "edges_real.V"
 EDGES_REFLECTION = "edges_reflection.V"
 EDGES_REFRACTION = "edges_refraction.V"
@@ -98,6 +100,7 @@ SPECS: dict[str, LayerSpec] = {
         LayerSpec(RAW_RGB[1], _f32, "beauty green before lines or overlays were composited"),
         LayerSpec(RAW_RGB[2], _f32, "beauty blue before lines or overlays were composited"),
         LayerSpec(CONTOUR, _u32, "object id on apparent-contour pixels, 0 elsewhere"),
+        LayerSpec(CONTOUR_INK, _f32, "ink in [0, 1] of the soft, differentiable object outlines"),
         LayerSpec(EDGES_REAL, _f32, "1 where the primary hit object differs (real contour)"),
         LayerSpec(EDGES_REFLECTION, _f32, "1 where trees first differ in a reflection subtree"),
         LayerSpec(EDGES_REFRACTION, _f32, "1 where trees first differ in a refraction subtree"),

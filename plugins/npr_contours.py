@@ -12,6 +12,14 @@ real objects from their reflections and refractions.
      - Type
      - Default
      - Meaning
+   * - ``contour_model``
+     - string
+     - ``exact``
+     - What draws the contours: ``exact``, traced on the pixel-centre ids (this page), or
+       ``soft``, the object outlines of :func:`mi_npr.ad.soft_lines` (below), whose gradients
+       under ``mi.render(scene, params=params)`` include outlines that move. ``soft`` takes
+       ``line_width`` and ``color`` only (any other parameter set is an error) and needs an AD
+       variant.
    * - (nested integrator)
      - integrator
      - none
@@ -50,6 +58,22 @@ elsewhere, in the ids of ``id_mode``; their names are in the GBuffer's metadata
 then the untouched beauty ``beauty.R beauty.G beauty.B``. ``R G B`` hold the beauty with the
 contours drawn.
 
+**The soft contour model** (``contour_model = 'soft'``): the first channel is
+``contour_ink.V`` instead of ``contour.V``, the ink in [0, 1] of :func:`mi_npr.ad.soft_lines`
+of the sensor at its film's size (no crop window) with its id feature alone
+(``depth_weight = 0, normal_weight = 0``): every object's outline against the background and
+against the other objects (apparent contours and occlusion boundaries between objects), 4 x 4
+samples a pixel, a Gaussian filter of ``sigma = line_width / 2`` pixels, composited in
+``color`` onto the raw beauty; nothing is traced (no ``contour.V``, no vector contours), the
+object table's shapes are the objects. ``dr.backward`` through ``mi.render(scene,
+params=params)`` gives its interior terms (the samples' rays follow the camera and the shapes)
+and boundary terms (the flux of each moving outline, from the front surface's image
+velocity); topology changes and the image frame beyond the filter's margin are not covered
+(:mod:`mi_npr.ad.visibility`). When only ``contour_ink.V`` receives gradients, the backward
+pass differentiates the soft contours alone; a gradient on any other channel differentiates
+the whole render (the G-buffer and beauty with the interior term only), as ``npr_lines``'s
+soft model does.
+
 XML::
 
     <integrator type="npr_contours">
@@ -58,6 +82,13 @@ XML::
         <integrator type="path">
             <integer name="max_depth" value="8"/>
         </integrator>
+    </integrator>
+
+Differentiable contours, for ``mi.render(scene, params=params)`` and ``dr.backward``::
+
+    <integrator type="npr_contours">
+        <string name="contour_model" value="soft"/>
+        <float name="line_width" value="2"/>
     </integrator>
 """
 
@@ -78,7 +109,8 @@ class NprContoursIntegrator(NprIntegrator):
     PARAMS = DRAWING.params
 
     def aov_names(self) -> list[str]:
-        return [L.CONTOUR, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
+        first = L.CONTOUR_INK if self.params["contour_model"] == "soft" else L.CONTOUR
+        return [first, *L.GBUFFER_AOVS, *L.RAW_RGB, *self.crypto_aovs()]
 
 
 mi.register_integrator("npr_contours", lambda props: NprContoursIntegrator(props))

@@ -1,12 +1,14 @@
-"""``npr_lines`` with ``line_model = 'soft'`` under ``mi.render(scene, params=params)``: the
-``lines.V`` channel is :func:`mi_npr.ad.soft_lines` of the scene's sensor, and ``dr.backward``
-through the render gives its visibility gradients (silhouettes that move), as Mitsuba's own
-optimisation loops use them.
+"""``npr_lines`` with ``line_model = 'soft'`` and ``npr_contours`` with ``contour_model =
+'soft'`` under ``mi.render(scene, params=params)``: the ``lines.V`` (``contour_ink.V``) channel
+is :func:`mi_npr.ad.soft_lines` of the scene's sensor, and ``dr.backward`` through the render
+gives its visibility gradients (silhouettes that move), as Mitsuba's own optimisation loops use
+them.
 
-References: ``soft_lines`` called directly (its options spelt out from the manual's rule:
-``n = line_aa``, ``sigma = line_width / 2``, the scene's bounding-box diagonal as the depth
-scale); central finite differences of the rendered channel itself, over a step of many
-sub-samples (the primal moves in steps of ``1 / line_aa`` pixel)."""
+References: ``soft_lines`` called directly (its options spelt out from the manuals' rules:
+``n = line_aa`` (4 for the contours), ``sigma = line_width / 2``, the scene's bounding-box
+diagonal as the depth scale, the contours with the id feature alone); central finite
+differences of the rendered channel itself, over a step of many sub-samples (the primal moves
+in steps of ``1 / n`` pixel)."""
 
 from __future__ import annotations
 
@@ -223,3 +225,124 @@ def test05_a_variant_without_ad_and_a_crop_window_are_refused(write_scene, monke
     monkeypatch.setattr(dr, "is_diff_v", lambda t: False)  # as on a variant without AD
     with pytest.raises(ParameterError, match="line_model = 'soft' needs an AD variant"):
         mi_npr.render_layers(scene, ["lines"], params, scene_drawings=False)
+
+
+# ------------------------------------------------------------------------ npr_contours, soft
+
+CONTOUR_INK = 3  # channels: R G B, then contour_ink.V
+
+
+def _contour_scene(**contours) -> mi.Scene:
+    """:func:`_scene`'s sphere and camera, drawn by ``npr_contours`` with soft contours."""
+    scene = _scene()
+    return mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": {
+                "type": "npr_contours",
+                "contour_model": "soft",
+                "line_width": WIDTH,
+                **contours,
+            },
+            "sensor": scene.sensors()[0],
+            "ball": {"type": "sphere", "radius": 0.5, "bsdf": {"type": "diffuse"}},
+        }
+    )
+
+
+def test06_the_contour_channel_is_soft_lines_with_the_id_feature_alone():
+    scene = _contour_scene(color=[0.0, 0.0, 1.0])
+    image = np.asarray(mi.render(scene, spp=1))
+    assert image.shape == (H, W, 16)
+    assert scene.integrator().aov_names()[0] == "contour_ink.V"
+    ref = soft_lines(scene, n=4, sigma=WIDTH / 2, depth_weight=0.0, normal_weight=0.0)
+    ink = image[:, :, CONTOUR_INK]
+    assert np.allclose(ink, np.asarray(ref), atol=1e-6)
+    assert ink.max() > 0.5 and ink[0, 0] == 0.0 and ink[H // 2, W // 2] < 1e-3  # an outline
+    # Not the soft lines' own default features (the depth and normal ones add ink inside).
+    full = np.asarray(soft_lines(scene, n=4, sigma=WIDTH / 2))
+    assert np.abs(full - ink).max() > 0.05
+    # Blue contours composited onto the raw beauty (kept after the G-buffer channels).
+    raw = image[:, :, 13:16]
+    blue = raw * (1.0 - ink[..., None]) + np.array([0.0, 0.0, 1.0]) * ink[..., None]
+    assert np.allclose(image[:, :, :3], blue, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("d", "eps"),
+    [
+        ((1.0, 0.0, 0.0), 0.1),  # sideways: the outline moves 1.3 px
+        # Away: the outline's radius shrinks 0.6 px over the step (0.13 px at 0.1, under the
+        # quarter-pixel sub-samples of the 4 x 4 grid); the loss stays near-linear there.
+        ((0.0, 0.0, 1.0), 0.5),
+    ],
+)
+def test07_contour_gradients_match_finite_differences_of_the_render(d, eps):
+    scene = _contour_scene()
+    params = mi.traverse(scene)
+    move = _translate(params, "ball.to_world", d)
+    weights = _weights()
+
+    def loss(v):
+        move(v)
+        image = mi.render(scene, params=params, spp=1, seed=1)
+        return dr.sum(_channel(image, CONTOUR_INK) * weights)
+
+    v = mi.Float(0.0)
+    dr.enable_grad(v)
+    dr.backward(loss(v))
+    grad = float(dr.grad(v)[0])
+    fd = (float(loss(mi.Float(eps))[0]) - float(loss(mi.Float(-eps))[0])) / (2 * eps)
+    move(mi.Float(0.0))
+    assert abs(fd) > 10.0  # the motion changes the drawing
+    assert grad == pytest.approx(fd, rel=0.05)
+    if d[2]:
+        assert grad < 0.0  # moving away, the outline shrinks: less ink
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        (
+            '<string name="contour_model" value="sketchy"/>',
+            "'contour_model' = 'sketchy': expected one",
+        ),
+        (
+            '<string name="contour_model" value="soft"/><string name="method" '
+            'value="code_direction"/>',
+            "'method' belongs to contour_model = 'exact'; contour_model = 'soft' takes",
+        ),
+    ],
+)
+def test08_bad_contour_parameters_are_one_line_errors(write_scene, params, message):
+    path = write_scene(BALL, integrator=f'<integrator type="npr_contours">{params}</integrator>')
+    with pytest.raises(mi_npr.SceneError) as e:
+        mi_npr.load_scene(path)
+    text = str(e.value)
+    assert message in text and "npr_contours" in text and str(path) in text
+    assert "\n" not in text
+
+
+def test09_soft_contours_refuse_a_variant_without_ad_and_a_crop_window(write_scene, monkeypatch):
+    path = write_scene(BALL, integrator='<integrator type="npr_contours"/>', width=16, height=12)
+    scene = mi_npr.load_scene(path)
+    params = {"contour_model": "soft"}
+    gb = mi_npr.render_layers(scene, ["contours"], params, scene_drawings=False).gbuffer
+    ink = gb.numpy("contour_ink.V")
+    assert ink.max() > 0.5  # the outline
+    ref = soft_lines(scene, n=4, sigma=0.5, depth_weight=0.0, normal_weight=0.0)
+    assert np.allclose(ink, np.asarray(ref), atol=1e-6)
+    assert "contour.V" not in gb  # no traced contours
+    sensor = mi.load_dict(
+        {
+            "type": "perspective",
+            "film": {"type": "hdrfilm", "width": 16, "height": 12, "crop_width": 8},
+        }
+    )
+    with pytest.raises(
+        ParameterError, match="contour_model = 'soft' draws the whole film: its crop window 8x12"
+    ):
+        mi_npr.render_layers(scene, ["contours"], params, sensor=sensor, scene_drawings=False)
+    monkeypatch.setattr(dr, "is_diff_v", lambda t: False)  # as on a variant without AD
+    with pytest.raises(ParameterError, match="contour_model = 'soft' needs an AD variant"):
+        mi_npr.render_layers(scene, ["contours"], params, scene_drawings=False)
