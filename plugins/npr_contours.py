@@ -64,8 +64,9 @@ of the sensor at its film's size (no crop window) with its id feature alone
 (``depth_weight = 0, normal_weight = 0``): every object's outline against the background and
 against the other objects (apparent contours and occlusion boundaries between objects), 4 x 4
 samples a pixel, a Gaussian filter of ``sigma = line_width / 2`` pixels, composited in
-``color`` onto the raw beauty; nothing is traced (no ``contour.V``, no vector contours), the
-object table's shapes are the objects. ``dr.backward`` through ``mi.render(scene,
+``color`` onto the raw beauty; nothing is traced (no ``contour.V``, no vector contours: the
+``contours`` command writes no ``<stem>_contours.svg``), the object table's shapes are the
+objects. ``dr.backward`` through ``mi.render(scene,
 params=params)`` gives its interior terms (the samples' rays follow the camera and the shapes)
 and boundary terms (the flux of each moving outline, from the front surface's image
 velocity); topology changes and the image frame beyond the filter's margin are not covered

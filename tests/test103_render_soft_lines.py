@@ -346,3 +346,22 @@ def test09_soft_contours_refuse_a_variant_without_ad_and_a_crop_window(write_sce
     monkeypatch.setattr(dr, "is_diff_v", lambda t: False)  # as on a variant without AD
     with pytest.raises(ParameterError, match="contour_model = 'soft' needs an AD variant"):
         mi_npr.render_layers(scene, ["contours"], params, scene_drawings=False)
+
+
+def test10_soft_contours_write_their_picture_and_no_empty_svg(tmp_path):
+    """The soft model traces nothing: the command writes the EXR and the PNG, and no SVG that
+    would hold no contour (the exact model's SVG is written, with its paths)."""
+    from mi_npr.cli import main
+
+    for model, svg in (("soft", False), ("exact", True)):
+        out = tmp_path / model
+        rc = main(
+            ["contours", "scene1", "-o", str(out), "--width", "48", "--height", "36", "--spp", "1",
+             "--contour-model", model, "--no-progress"]
+        )  # fmt: skip
+        assert rc in (0, None)
+        names = sorted(p.name for p in out.iterdir())
+        assert "scene1_contours.exr" in names and "scene1_contours.png" in names
+        assert ("scene1_contours.svg" in names) == svg, names
+        if svg:
+            assert "<path" in (out / "scene1_contours.svg").read_text()

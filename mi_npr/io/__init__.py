@@ -58,7 +58,8 @@ def write_layered_outputs(
     - ``<stem>.exr`` (every layer) and ``<stem>.png`` (the beauty, with the lines if drawn);
     - one picture per drawing: ``<stem>_lines.png`` (the lines alone, ``line_color`` ink on
       ``paper``) with ``<stem>_lines.svg`` (its strokes), ``<stem>_contours.png`` with
-      ``<stem>_contours.svg`` (vector contours on the true outline), ``<stem>_raytree.png``
+      ``<stem>_contours.svg`` (vector contours on the true outline; none with the ``soft``
+      ``contour_model``, whose contours are a raster ink layer), ``<stem>_raytree.png``
       with ``<stem>_raytree.svg`` (one Inkscape layer per edge class), and for the ``strokes``
       drawing ``<stem>_strokes.svg``, ``<stem>_strokes.json`` and ``<stem>_strokes.png``
       (:mod:`mi_npr.io.strokes`).
@@ -128,7 +129,8 @@ def layered_files(
     }
     present = {
         "lines": L.LINES in gb,
-        "contours": "contours" in result.pictures,
+        # the soft contour model's contours are a raster ink layer: no vector contours
+        "contours": "contours" in result.pictures and L.CONTOUR_INK not in gb,
         "raytree": "raytree" in result.pictures,
     }
     if svg_image == "embed":
