@@ -539,23 +539,29 @@ def close_seams(caster: Caster) -> int:
     centre, ck = ids[1:-1, 1:-1], known[1:-1, 1:-1]
     sides = [(ids[1:-1, 2:], known[1:-1, 2:]), (ids[1:-1, :-2], known[1:-1, :-2])]
     sides += [(ids[2:, 1:-1], known[2:, 1:-1]), (ids[:-2, 1:-1], known[:-2, 1:-1])]
-    inside = [k & (v != OUTSIDE) for v, k in sides]
-    ref = np.full((h, w), OUTSIDE, np.uint32)
-    for (v, _), ok in zip(sides, inside, strict=True):
+    # a pixel the rule changes differs from a known neighbour inside the image (the one its
+    # id would come from): the rule is evaluated at those pixels alone
+    differs = np.zeros((h, w), bool)
+    for v, k in sides:
+        differs |= k & (v != centre) & (v != OUTSIDE)
+    ys, xs = np.nonzero(ck & differs)
+    vals = [(v[ys, xs], k[ys, xs]) for v, k in sides]
+    inside = [k & (v != OUTSIDE) for v, k in vals]
+    ref = np.full(len(xs), OUTSIDE, np.uint32)
+    for (v, _), ok in zip(vals, inside, strict=True):
         ref = np.where((ref == OUTSIDE) & ok, v, ref)
-    agree = np.ones((h, w), bool)
-    count = np.zeros((h, w), np.int64)
-    for (v, k), ok in zip(sides, inside, strict=True):
+    agree = np.ones(len(xs), bool)
+    count = np.zeros(len(xs), np.int64)
+    for (v, k), ok in zip(vals, inside, strict=True):
         agree &= ~(v != OUTSIDE) | (k & (v == ref))  # an unknown neighbour: no verdict
         count += ok
-    cand = ck & agree & (count >= 2) & (ref != 0) & (ref != OUTSIDE) & (centre != ref)
-    ys, xs = np.nonzero(cand)
+    cand = agree & (count >= 2) & (ref != 0) & (ref != OUTSIDE) & (centre[ys, xs] != ref)
+    ys, xs, want = ys[cand], xs[cand], ref[cand]
     if len(xs) == 0:
         return 0
     again = caster.seam_ids(xs, ys)
     if again is None:
         return 0
-    want = ref[ys, xs]
     hit = np.any(again == want[None, :], axis=0)
     if hit.any():
         caster.set_ids(xs[hit], ys[hit], want[hit])
