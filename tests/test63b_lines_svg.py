@@ -10,12 +10,10 @@ projection or of the strokes' code.
 from __future__ import annotations
 
 import itertools
-import math
 import re
 import xml.etree.ElementTree as ET
 from collections import Counter
 
-import mitsuba as mi
 import numpy as np
 import pytest
 
@@ -26,6 +24,8 @@ from mi_npr.io import write_layered_outputs
 from mi_npr.pipeline import render_layers
 
 from .helpers import scene_xml
+from .test75_strokes_closed_form import CUBE as CUBE_XML
+from .test75_strokes_closed_form import FOV, ORIGIN, POSE, TARGET, H, W, cube_geometry, project
 
 SVG = "{http://www.w3.org/2000/svg}"
 INK = "{http://www.inkscape.org/namespaces/inkscape}"
@@ -221,52 +221,14 @@ def test05_small_empty_and_border_masks():
 
 # ---------------------------------------------------------------- lines.svg from the strokes
 
-W, H, FOV = 96, 72, 40.0
-ORIGIN, TARGET, UP = np.array([0.3, 0.8, -0.5]), np.array([0.0, 0.0, 5.0]), np.array([0, 1, 0])
-CUBE = (
-    '<shape type="cube" id="box"><transform name="to_world"><rotate y="1" angle="35"/>'
-    '<rotate x="1" angle="25"/><scale value="0.9"/><translate x="0.2" y="-0.1" z="5"/>'
-    "</transform></shape>"
-)
-
-
-def project(p: np.ndarray) -> np.ndarray:
-    """Film positions of world points: the pinhole of Mitsuba's ``perspective`` sensor."""
-    f = (TARGET - ORIGIN) / np.linalg.norm(TARGET - ORIGIN)
-    left = np.cross(UP, f)
-    left /= np.linalg.norm(left)
-    up = np.cross(f, left)
-    v = np.asarray(p, np.float64) - ORIGIN
-    z = v @ f
-    tx = math.tan(math.radians(FOV) / 2)
-    return np.stack(
-        [W / 2 * (1 - (v @ left) / z / tx), H / 2 * (1 - (v @ up) / z / (tx * H / W))], -1
-    )
+CUBE = CUBE_XML.format(POSE)
 
 
 def cube() -> tuple[np.ndarray, dict[tuple[int, int], list[bool]]]:
     """The corners (8, 3) and, per edge, whether each of its two faces faces the camera."""
-    T = (
-        mi.ScalarTransform4f()
-        .translate([0.2, -0.1, 5])
-        .scale(0.9)
-        .rotate([1, 0, 0], 25)
-        .rotate([0, 1, 0], 35)
-    )
-    m = np.asarray(T.matrix, np.float64)
-    local = np.array(list(itertools.product((-1, 1), repeat=3)), float)
-    corners = local @ m[:3, :3].T + m[:3, 3]
-    edges = {}
-    for i, j in itertools.combinations(range(8), 2):
-        diff = local[i] != local[j]
-        if diff.sum() == 1:
-            normals = []
-            for k in np.flatnonzero(~diff):
-                n = np.zeros(3)
-                n[k] = local[i][k]
-                normals.append(m[:3, :3] @ n)
-            edges[(i, j)] = [float(n @ (corners[i] - ORIGIN)) < 0 for n in normals]
-    return corners, edges
+    corners, _, faces = cube_geometry()
+    front = {e: [float(n @ (corners[e[0]] - ORIGIN)) < 0 for n in ns] for e, ns in faces.items()}
+    return corners, front
 
 
 def lines_svg(tmp_path, body: str, **params) -> tuple[ET.Element, mi_npr.GBuffer]:
