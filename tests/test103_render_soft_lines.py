@@ -96,9 +96,10 @@ def _translate(params, key: str, d: tuple[float, float, float]):
     return move
 
 
-def _gradient_and_difference(scene, key: str, d, channel) -> tuple[float, float]:
+def _gradient_and_difference(scene, key: str, d, channel, eps: float = 0.1) -> tuple[float, float]:
     """``dr.backward``'s gradient of a weighted sum of the rendered ``channel`` along the
-    translation ``d`` of ``key``, and the central finite difference of the same (step 0.1)."""
+    translation ``d`` of ``key``, and the central finite difference of the same (step
+    ``eps``)."""
     params = mi.traverse(scene)
     move = _translate(params, key, d)
     weights = _weights()
@@ -111,7 +112,6 @@ def _gradient_and_difference(scene, key: str, d, channel) -> tuple[float, float]
     dr.enable_grad(v)
     dr.backward(loss(v))
     grad = float(dr.grad(v)[0])
-    eps = 0.1
     fd = (float(loss(mi.Float(eps))[0]) - float(loss(mi.Float(-eps))[0])) / (2 * eps)
     move(mi.Float(0.0))
     return grad, fd
@@ -188,6 +188,15 @@ def test03_an_adam_loop_fits_a_translation():
 BALL = '<shape type="sphere" id="ball"><point name="center" x="0" y="0" z="4"/></shape>'
 
 
+def _refused(path, plugin: str, message: str) -> None:
+    """Loading ``path`` fails with one line that names the file, the plugin and ``message``."""
+    with pytest.raises(mi_npr.SceneError) as e:
+        mi_npr.load_scene(path)
+    text = str(e.value)
+    assert message in text and plugin in text and str(path) in text
+    assert "\n" not in text
+
+
 @pytest.mark.parametrize(
     ("params", "message"),
     [
@@ -198,11 +207,7 @@ BALL = '<shape type="sphere" id="ball"><point name="center" x="0" y="0" z="4"/><
 def test04_bad_parameters_are_one_line_errors(write_scene, params, message):
     soft = '<string name="line_model" value="soft"/>' if "sketchy" not in params else ""
     path = write_scene(BALL, integrator=f'<integrator type="npr_lines">{soft}{params}</integrator>')
-    with pytest.raises(mi_npr.SceneError) as e:
-        mi_npr.load_scene(path)
-    text = str(e.value)
-    assert message in text and "npr_lines" in text and str(path) in text
-    assert "\n" not in text
+    _refused(path, "npr_lines", message)
 
 
 def test05_a_variant_without_ad_and_a_crop_window_are_refused(write_scene, monkeypatch):
@@ -278,22 +283,7 @@ def test06_the_contour_channel_is_soft_lines_with_the_id_feature_alone():
     ],
 )
 def test07_contour_gradients_match_finite_differences_of_the_render(d, eps):
-    scene = _contour_scene()
-    params = mi.traverse(scene)
-    move = _translate(params, "ball.to_world", d)
-    weights = _weights()
-
-    def loss(v):
-        move(v)
-        image = mi.render(scene, params=params, spp=1, seed=1)
-        return dr.sum(_channel(image, CONTOUR_INK) * weights)
-
-    v = mi.Float(0.0)
-    dr.enable_grad(v)
-    dr.backward(loss(v))
-    grad = float(dr.grad(v)[0])
-    fd = (float(loss(mi.Float(eps))[0]) - float(loss(mi.Float(-eps))[0])) / (2 * eps)
-    move(mi.Float(0.0))
+    grad, fd = _gradient_and_difference(_contour_scene(), "ball.to_world", d, CONTOUR_INK, eps)
     assert abs(fd) > 10.0  # the motion changes the drawing
     assert grad == pytest.approx(fd, rel=0.05)
     if d[2]:
@@ -316,11 +306,7 @@ def test07_contour_gradients_match_finite_differences_of_the_render(d, eps):
 )
 def test08_bad_contour_parameters_are_one_line_errors(write_scene, params, message):
     path = write_scene(BALL, integrator=f'<integrator type="npr_contours">{params}</integrator>')
-    with pytest.raises(mi_npr.SceneError) as e:
-        mi_npr.load_scene(path)
-    text = str(e.value)
-    assert message in text and "npr_contours" in text and str(path) in text
-    assert "\n" not in text
+    _refused(path, "npr_contours", message)
 
 
 def test09_soft_contours_refuse_a_variant_without_ad_and_a_crop_window(write_scene, monkeypatch):
