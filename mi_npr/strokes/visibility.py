@@ -26,6 +26,8 @@ At most :data:`MAX_PASSES` glass or null surfaces are passed per ray (more read 
 
 from __future__ import annotations
 
+from typing import Any
+
 import drjit as dr
 import mitsuba as mi
 import numpy as np
@@ -178,11 +180,7 @@ class SegmentVisibility:
         if len(idx) == 0:
             return np.asarray(ulo, np.float64), np.asarray(uhi, np.float64)
         if len(idx) > RAYS:
-            parts = [
-                self.bisect(*(x[k : k + RAYS] for x in (idx, ulo, uhi, state)), iterations)
-                for k in range(0, len(idx), RAYS)
-            ]
-            return np.concatenate([a for a, _ in parts]), np.concatenate([b for _, b in parts])
+            return _in_launches(self.bisect, (idx, ulo, uhi, state), iterations)
         i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
         lo = jit_array(mi.Float64, np.asarray(ulo, np.float64))
         hi = jit_array(mi.Float64, np.asarray(uhi, np.float64))
@@ -211,13 +209,20 @@ class SegmentVisibility:
         if n == 0:
             return np.zeros(0, np.int32), np.zeros(0, bool)
         if n > RAYS:
-            parts = [self.at(idx[k : k + RAYS], u[k : k + RAYS]) for k in range(0, n, RAYS)]
-            return np.concatenate([q for q, _ in parts]), np.concatenate([g for _, g in parts])
+            return _in_launches(self.at, (idx, u))
         i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
         uu = jit_array(mi.Float, np.asarray(u, np.float32))
         o, p, d, dist, own = self._points(i, uu)
         qi, glass = _count(self.scene, self.table, o, p, d, dist, own, self.max_qi)
         return np.asarray(qi.numpy(), np.int32), np.asarray(glass.numpy(), bool)
+
+
+def _in_launches(f: Any, arrays: tuple[np.ndarray, ...], *rest: Any) -> tuple[np.ndarray, ...]:
+    """``f(*arrays, *rest)`` taken :data:`RAYS` rows of ``arrays`` at a time, each of its
+    results concatenated."""
+    n = len(arrays[0])
+    parts = [f(*(a[k : k + RAYS] for a in arrays), *rest) for k in range(0, n, RAYS)]
+    return tuple(np.concatenate(x) for x in zip(*parts, strict=True))
 
 
 def _count(
@@ -230,8 +235,8 @@ def _count(
     own: list,
     max_qi: int,
 ) -> tuple[mi.UInt32, mi.Bool]:
-    """The QI loop (module docstring) over evaluated rays from ``o`` in direction ``d`` to
-    the points ``P`` at distance ``dist``; ``own``: the four arrays object id, prim, object
+    """The QI loop (module docstring), evaluated, over the rays from ``o`` in direction ``d``
+    to the points ``P`` at distance ``dist``; ``own``: the four arrays object id, prim, object
     id, prim of the points' faces."""
     qi, glass = _qi(scene, table, o, P, d, dist, own, max_qi)
     dr.eval(qi, glass)
