@@ -46,7 +46,7 @@ def _near(p: np.ndarray, lines: list[np.ndarray]) -> float:
 
 def test01_t_junctions_end_the_strokes_behind(tmp_path):
     scene = load(tmp_path, WALL + BOX + BALL)
-    st = extract_strokes(scene, scene.sensors()[0])
+    st = extract_strokes(scene, scene.sensors()[0], max_qi=8)
     wall = [s for s in st if st.name_of(s.object_id[0]) == "wall"]
     top_y = project(np.array([[0.0, 1.4, 9.0]]))[0, 1]
     top = sorted(
@@ -83,7 +83,7 @@ def test02_no_stroke_is_drawn_twice(tmp_path):
     2 px (a hidden line may cross a visible one at a small angle: that is the view, not a
     duplicate)."""
     scene = load(tmp_path, WALL + BOX + BALL)
-    st = extract_strokes(scene, scene.sensors()[0])
+    st = extract_strokes(scene, scene.sensors()[0], max_qi=8)
     lines = _polylines(st)
     state = [(s.qi, s.through_glass) for s in st]
     assert len(lines) >= 10
@@ -235,7 +235,7 @@ def test08_max_qi_leaves_out_what_lies_deeper(tmp_path):
     """Strokes behind more than ``max_qi`` surfaces are left out, the others are unchanged:
     the wall's top border passes behind the box and the ball (qi 2, each a closed solid)."""
     scene = load(tmp_path, WALL + BOX + BALL)
-    full = extract_strokes(scene, scene.sensors()[0])
+    full = extract_strokes(scene, scene.sensors()[0], max_qi=8)
     key = lambda s: (s.kind, s.qi, s.through_glass, np.round(s.points, 6).tobytes())  # noqa: E731
     assert {s.qi for s in full} == {0, 1, 2}
     for max_qi in (0, 1, 2):  # 0: the visible strokes alone
@@ -371,3 +371,17 @@ def test11_edges_and_rays_taken_in_small_batches_give_the_same_strokes(tmp_path,
     monkeypatch.setattr(visibility, "RAYS", 7)
     small = sorted(map(key, extract_strokes(scene, scene.sensors()[0], max_qi=2)))
     assert len(whole) > 5 and small == whole
+
+
+def test12_extract_strokes_defaults_are_the_drawings():
+    """``extract_strokes`` called without a parameter extracts what the ``strokes`` drawing
+    does by default: its keyword defaults are the drawing's parameter table's."""
+    import inspect
+
+    from mi_npr.drawings import DRAWINGS
+
+    drawing = DRAWINGS["strokes"].values({})
+    sig = inspect.signature(extract_strokes).parameters
+    for name in ("crease_angle", "chain_angle", "max_qi", "raytree_depth"):
+        assert sig[name].default == drawing[name], name
+    assert sig["max_qi"].default == 1
