@@ -85,7 +85,7 @@ areas" (Fig. 4.8 b): the line strength is multiplied by ``clip(2 - Y / bright_fa
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import drjit as dr
@@ -136,6 +136,28 @@ LINES_PARAMS: tuple[Param, ...] = (
 )
 
 
+_DEFAULT = {p.name: p.default for p in LINES_PARAMS}
+
+
+def depth_field(
+    z: Any,
+    near: float | None = None,
+    far: float | None = None,
+    frame: tuple[Any, Any] | None = None,
+) -> Callable[[Any], Any]:
+    """The chain's map ``Z -> D`` for the frame ``z`` (flat): eq. 5.1's normalised depth with
+    the background at 2 and, with ``far`` unset, ``far >= 4 near`` (module docstring, "Depth at
+    any scale"); ``frame`` as in :func:`~mi_npr.kernels.depth_lines.depth_normalizer`."""
+    return depth_normalizer(z, near, far, relative=True, background=2.0, frame=frame)
+
+
+def depth_step(c: float = _DEFAULT["c"], t: float = _DEFAULT["t"]) -> float:
+    """The step of :func:`depth_field`'s ``D`` that the chain draws: eq. 5.1 lights a pixel up
+    above ``t / c`` (``inf`` for ``c = 0``); ID edges and creases at such a step take its near
+    side (:func:`~mi_npr.kernels.edges.owns`)."""
+    return t / c if c > 0 else float("inf")
+
+
 def _layer(gbuffer: Mapping[str, Any], name: str, why: str) -> Any:
     try:
         return gbuffer[name]
@@ -173,10 +195,7 @@ def lines(
     z, shape = float_image(_layer(gbuffer, L.Z, "depth"), L.Z)
     grid = Grid(shape, z)
 
-    normalizer = depth_normalizer(
-        z, p["near"], p["far"], relative=True, background=2.0, frame=depth_range
-    )
-    depth = Field(z, grid, normalizer)
+    depth = Field(z, grid, depth_field(z, p["near"], p["far"], depth_range))
     for _ in range(p["dilation_iterations"]):
         d = dilated(depth, p["dilation_size"])
         dr.eval(d)
@@ -188,7 +207,7 @@ def lines(
         ink = isolated_removed(Field(ink, grid), p["t0"])
 
     # The step eq. 5.1 draws: ID and crease edges at such a step take eq. 5.1's (near) side.
-    step = grid.opaque(p["t"] / p["c"] if p["c"] > 0 else float("inf"))
+    step = grid.opaque(depth_step(p["c"], p["t"]))
     boundary, crease = _edges(gbuffer, params, p, depth, grid, step)
     if p["leaf_edges"]:
         leaf, shape_l = id_image(
