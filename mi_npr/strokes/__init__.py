@@ -12,10 +12,13 @@ object space, exact, and the image is used for what object space lacks.
    boundary), ``crease`` (dihedral angle below ``crease_angle``, Freestyle's definition, the
    ``lines`` drawing's), and ``intersection`` lines between meshes
    (:mod:`~mi_npr.strokes.intersect`).
-2. *Outlines of the other shapes* (spheres, cylinders, disks, instances:
+2. *Outlines of the other shapes* (spheres, cylinders, disks, curves, instances:
    :mod:`~mi_npr.strokes.outlines`): :func:`mi_npr.contours.vectorize` bisects the id image's
-   cracks with rays, then side probes keep the vertices on the shape's own outline, typed
-   ``silhouette`` (surface seen edge-on) or ``border`` (a rim in front of what lies behind).
+   cracks with rays; a shape's outlines in front of itself (the rim of an open cylinder before
+   its inner wall: one id on both sides) start from the ``lines`` drawing's depth steps within
+   one id, bisected by depth and followed on while they stay steps; then side probes keep the
+   vertices on the shape's own outline, typed ``silhouette`` (surface seen edge-on) or
+   ``border`` (a rim in front of what lies behind).
    **Nothing is drawn twice**: in that id image every mesh reads as background, so a mesh's
    outline comes from its object-space silhouette and border edges only, and another shape's
    only from its image-space outline; an outline between two shapes belongs to the nearer one.

@@ -468,7 +468,7 @@ def extract_strokes(
     camera = proj.camera
     edges = feature_edges(table, proj.origin, crease_angle)
     strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)
-    strokes += outline_strokes(scene, sensor, table, camera)
+    strokes += outline_strokes(scene, sensor, table, camera, depth_range)
     if raytree_depth:
         strokes += raytree_strokes(scene, sensor, table, camera, raytree_depth)
     strokes = [s for s in strokes if len(s) >= 2]

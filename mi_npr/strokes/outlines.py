@@ -1,9 +1,15 @@
 """Image-space outlines of the shapes that are not meshes (Mitsuba's ``sphere``, ``cylinder``,
-``disk``, instances...), exact to a fraction of a pixel.
+``disk``, ``sdfgrid``, curves, instances...), exact to a fraction of a pixel.
 
 **Which shapes.** Meshes get their silhouettes in object space (:mod:`mi_npr.strokes.edges`);
 every other shape gets its outline here, so no outline is drawn twice: in the id image that is
 traced, every mesh reads as background.
+
+**Which outlines.** An object ``k``'s outline lies in front of something else (another object,
+the background: the *id outline*, where the id image changes) or in front of ``k`` itself (the
+*self-occlusion outline*, the same id on both sides: the rim of an open cylinder before its
+inner wall, the inner limb of a torus before its far side, a curve crossing itself, one shape
+of a shape group before another), where the depth steps within ``k``.
 
 **Two id images.** The first sees through glass: each pixel-centre ray
 (:func:`mi_npr.raycast.pixel_rays`) keeps the first surface that is neither glass nor ``null``
@@ -11,20 +17,55 @@ traced, every mesh reads as background.
 outline, marked ``through_glass``; in it only the opaque shapes that are not meshes have ids.
 The second stops at glass (only ``null`` surfaces are passed) and gives ids to the glass shapes
 that are not meshes alone: their own outlines, seen where nothing opaque is in front of them.
+The depth of each image is that of its hits (along the view axis, the ``Z`` layer's).
 
-**Vertices** come from :func:`mi_npr.contours.vectorize` (crack cycles of the id image, one
-vertex per crack bisected along the crack with ``ITERATIONS`` extra rays: within
-``2**-14`` px of the outline), with no simplification there. Each vertex is then *probed*: two
-rays at ``PROBE`` px on either side of the outline, across its local tangent. The side that sees
-the object ``k`` is the inside; its hit gives the vertex's 3-D position, depth and primitive.
-A vertex is on ``k``'s own outline (and kept) when the outside sees nothing or a surface
-farther than the inside one (by more than 0.1 %); it is a **silhouette** where the inside
-surface is seen edge-on, ``|n . d| < GRAZING`` (``n`` its normal, ``d`` the ray; a sphere's
-limb: at ``PROBE`` px inside the limb of a sphere of radius ``R`` px, ``|n . d|`` is about
-``sqrt(2 PROBE / R)``, 0.014 for ``R = 20``), else a **border** (the rim of a disk, of an
-open cylinder). Being seen edge-on is not enough to keep a vertex: where an outline meets a
-nearer object's, the vertices within a pixel of the meeting point lie near the limb but on
-the nearer object's outline.
+**Id outlines.** Their vertices come from :func:`mi_npr.contours.vectorize` (crack cycles of
+the id image, one vertex per crack bisected along the crack with ``ITERATIONS`` extra rays:
+within ``2**-14`` px of the outline), with no simplification there.
+
+**Self-occlusion outlines** (:func:`depth_step_paths`), one vertex per crack of the pixel grid
+that they cross:
+
+- *Seeds*: the depth steps of the ``lines`` drawing (:func:`step_cracks`): 4-neighbours of one
+  id whose normalised depths (:func:`mi_npr.kernels.chain.depth_field`: eq. 5.1's, the
+  background at 2) differ by more than eq. 5.1's ``t / c``
+  (:func:`~mi_npr.kernels.chain.depth_step`, the drawing's defaults: 2.5 % of the frame's
+  depth range), the near pixel being the one that owns the step
+  (:func:`mi_npr.kernels.edges.owns`).
+- *Location*: ``ITERATIONS`` halvings of the segment between the two pixel centres, each
+  keeping the half whose ends differ more in depth (a point that does not see ``k`` lies
+  beyond the near side); then the step is *confirmed*: towards the near pixel ``k`` is seen,
+  towards the far one a surface farther by ``RISE`` (or nothing) at ``2 PROBE`` px, and the
+  depths differ by at least three quarters of that at ``PROBE / 2`` px (a step's difference
+  stays, a smooth surface's shrinks with the distance, near a limb as its square root: to a
+  half). A steep slope of one surface is no outline.
+- *Following*: from the ends of the confirmed steps, every crack within ``GROW`` px (of one
+  id, the nearer pixel first) is located and confirmed the same way, in rounds, until a round
+  confirms nothing new (at most ``GROW_ROUNDS``). So an outline that is a depth line somewhere
+  is drawn on where its step is fainter (towards the point where a tube's rim meets its side,
+  the step fades to nothing); one that never is, is not drawn.
+- *Chaining*: two confirmed cracks that meet at a pixel corner are joined; of three, the two
+  opposite ones, and the third to the nearer of them (a T); of four, each to its opposite (a
+  crossing). :func:`mi_npr.strokes.chain.chain_order` (at any turn) makes the paths.
+
+Where a self-occlusion outline runs between the pixel centres and an id outline, within a
+pixel of it, no crack crosses it, and it is not drawn: a tube's rim ends a few pixels before
+the point where it touches the side outline (tangentially), within a pixel of that outline.
+
+**Kinds.** Each vertex is then *probed*: two rays at ``PROBE`` px on either side of the
+outline, across its local tangent. The *inside* is the side that sees ``k`` (of an id
+outline), or the nearer side (of a self-occlusion outline: it must see ``k``); its hit gives the
+vertex's 3-D position, depth and primitive. A vertex is on ``k``'s own outline (and kept)
+when the outside sees nothing or a surface farther than the inside one (by more than
+``RISE``); it is a **silhouette** where the inside surface is seen edge-on, ``|n . d| <
+GRAZING`` (``n`` its normal, ``d`` the ray: the surface turns away; a sphere's limb: at
+``PROBE`` px inside the limb of a sphere of radius ``R`` px, ``|n . d|`` is about ``sqrt(2
+PROBE / R)``, 0.014 for ``R = 20``), else a **border** (an open edge: the rim of a disk, of an
+open cylinder, in front of the background or of its own inner wall). Near the point where a
+rim meets a silhouette, the surface inside the rim grazes too: those last pixels of the rim
+are silhouettes. Being seen edge-on is not enough to keep a vertex: where an outline meets a
+nearer object's, the vertices within a pixel of the meeting point lie near the limb but on the
+nearer object's outline.
 
 Otherwise the object is cut by something in front (its outline there is the other object's) or
 meets another object at equal depth (an intersection, not drawn for these shapes yet). Runs of
@@ -36,14 +77,20 @@ not drawn.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import drjit as dr
 import mitsuba as mi
 import numpy as np
+from scipy.ndimage import maximum_filter
 
 from ..contours.vector import VectorPath, douglas_peucker, vectorize
 from ..gbuffer import Projection
+from ..kernels.chain import depth_field, depth_step
+from ..kernels.edges import owns
 from ..raycast import film_grid, pixel_rays
 from ..scene import ObjectTable
+from .chain import chain_order
 from .model import Stroke
 from .visibility import first_opaque_hit, jit_array
 
@@ -55,6 +102,12 @@ PROBE = 2e-3
 GRAZING = 0.25
 #: Douglas-Peucker tolerance of the outline strokes, in pixels.
 TOLERANCE = 0.02
+#: The far side of an outline lies farther than its near side by more than this share.
+RISE = 1e-3
+#: Self-occlusion outlines are followed on from their ends this far (px) a round...
+GROW = 8
+#: ...for at most this many rounds.
+GROW_ROUNDS = 64
 
 
 def probe(
@@ -124,6 +177,33 @@ def object_ids(
     return np.asarray(oid.numpy(), np.uint32)
 
 
+def ids_and_depths(
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    table: ObjectTable,
+    xy: np.ndarray,
+    camera: Projection,
+    stop_at_glass: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`probe`'s ``object_id`` and ``depth`` alone, from hits that compute the position
+    and nothing else (``mi.RayFlags.Minimal``): the pixel-centre image and the bisections of
+    its depth steps."""
+    xy = np.asarray(xy, np.float64).reshape(-1, 2)
+    if len(xy) == 0:
+        return np.zeros(0, np.uint32), np.zeros(0)
+    ray = pixel_rays(
+        sensor,
+        jit_array(mi.Float, xy[:, 0].astype(np.float32)),
+        jit_array(mi.Float, xy[:, 1].astype(np.float32)),
+    )
+    si, oid, hit, _ = first_opaque_hit(scene, table, ray, mi.RayFlags.Minimal, stop_at_glass)
+    dr.eval(si.p, oid, hit)
+    hit_np = np.asarray(hit.numpy(), bool)
+    p = np.stack([np.asarray(c.numpy(), np.float64) for c in (si.p.x, si.p.y, si.p.z)], -1)
+    depth = np.where(hit_np, (p - camera.origin) @ camera.forward, np.inf)
+    return np.asarray(oid.numpy(), np.uint32), depth
+
+
 def normals_2d(points: np.ndarray, closed: bool) -> np.ndarray:
     """Unit normals (N, 2) of a polyline at its vertices (the tangent from the neighbours,
     turned by 90 degrees; ``(0, 0)`` where the polyline has no length)."""
@@ -178,14 +258,23 @@ def outline_strokes(
     sensor: mi.Sensor,
     table: ObjectTable,
     camera: Projection,
+    depth_range: tuple[float, float] | None = None,
 ) -> list[Stroke]:
-    """The outline strokes of every shape that is not a mesh (module docstring)."""
-    out = _outlines(scene, sensor, table, camera, False)
-    return out + _outlines(scene, sensor, table, camera, True)
+    """The outline strokes of every shape that is not a mesh (module docstring): their id
+    outlines and their self-occlusion outlines. ``depth_range``: the frame's nearest and
+    farthest finite depth, which the depth steps are measured against (default: those of the
+    pixel-centre hits)."""
+    out = _outlines(scene, sensor, table, camera, False, depth_range)
+    return out + _outlines(scene, sensor, table, camera, True, depth_range)
 
 
 def _outlines(
-    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, camera: Projection, glass: bool
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    table: ObjectTable,
+    camera: Projection,
+    glass: bool,
+    depth_range: tuple[float, float] | None,
 ) -> list[Stroke]:
     """The outline strokes of the glass (``glass``) or the opaque shapes that are not meshes."""
     lut = analytic_ids(table, glass)
@@ -194,45 +283,286 @@ def _outlines(
     w, h = (int(v) for v in sensor.film().crop_size())
     gx, gy = film_grid(w, h)
     centres = np.stack([np.asarray(gx.numpy(), np.float64), np.asarray(gy.numpy(), np.float64)], 1)
-    ids = lut[object_ids(scene, sensor, table, centres, glass)].reshape(h, w)
+    oid, z = ids_and_depths(scene, sensor, table, centres, camera, glass)
+    ids = lut[oid].reshape(h, w)
     if not ids.any():
         return []
 
     def ids_at(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         return lut[object_ids(scene, sensor, table, np.stack([x, y], 1), glass)]
 
+    def seen_at(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        o, d = ids_and_depths(scene, sensor, table, xy, camera, glass)
+        return lut[o], d
+
     paths = vectorize(ids, objects=table.names, ids_at=ids_at, tolerance=0.0, iterations=ITERATIONS)
     paths = [p for p in paths if len(p) >= 2]
-    if not paths:
+    steps = depth_step_paths(ids, z.reshape(h, w), seen_at, depth_range)
+    if not paths and not steps:
         return []
-    pts = np.concatenate([p.points for p in paths])
-    nrm = np.concatenate([normals_2d(p.points, p.closed) for p in paths])
+    every = paths + steps
+    pts = np.concatenate([p.points for p in every])
+    nrm = np.concatenate([normals_2d(p.points, p.closed) for p in every])
     a = probe(scene, sensor, table, pts + PROBE * nrm, camera, glass)
     b = probe(scene, sensor, table, pts - PROBE * nrm, camera, glass)
     out: list[Stroke] = []
     start = 0
-    for path in paths:
+    for i, path in enumerate(every):
         n = len(path)
         sl = slice(start, start + n)
         start += n
-        out += _path_strokes(
-            path, {k: v[sl] for k, v in a.items()}, {k: v[sl] for k, v in b.items()}
-        )
+        sides = {k: v[sl] for k, v in a.items()}, {k: v[sl] for k, v in b.items()}
+        state_of = _id_outline_state if i < len(paths) else _depth_step_state
+        out += _path_strokes(path, *state_of(path.object_id, *sides))
     return out
 
 
-def _path_strokes(path: VectorPath, a: dict, b: dict) -> list[Stroke]:
-    k = np.uint32(path.object_id)
-    in_a = a["hit"] & (a["object_id"] == k)
-    in_b = b["hit"] & (b["object_id"] == k)
-    ok = in_a ^ in_b
+# ----------------------------------------------------------------- self-occlusion outlines
+
+#: Pixel offsets of a crack's two pixels: a crack of axis 0 lies between ``(x, y)`` and
+#: ``(x + 1, y)``, one of axis 1 between ``(x, y)`` and ``(x, y + 1)``.
+_AXIS = np.array([[1, 0], [0, 1]])
+
+#: Film positions (N, 2) -> the outline id and the depth seen through each.
+SeenAt = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+def same_id_cracks(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair of 4-neighbours of ``ids`` (H, W) with the same id, not 0: the pixels
+    ``a`` and ``b`` (M, 2) int64 ``(x, y)``, ``b`` to the right of or below ``a``."""
+    h, w = ids.shape
+    pa = []
+    for dx, dy in _AXIS:
+        same = (ids[: h - dy, : w - dx] == ids[dy:, dx:]) & (ids[dy:, dx:] > 0)
+        ys, xs = np.nonzero(same)
+        pa.append(np.stack([xs, ys], 1))
+    axis = np.repeat([0, 1], [len(pa[0]), len(pa[1])])
+    a = np.concatenate(pa).astype(np.int64)
+    return a, a + _AXIS[axis]
+
+
+def step_cracks(
+    ids: np.ndarray, z: np.ndarray, depth_range: tuple[float, float] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The depth steps within one outline id (module docstring): ``near`` and ``far`` (M, 2)
+    int64, the ``(x, y)`` pixels on either side of each step, 4-neighbours with the same id
+    (not 0) of ``ids`` (H, W) whose depths ``z`` (H, W, +inf: background) step as the
+    ``lines`` drawing's do (:func:`mi_npr.kernels.chain.depth_field` and ``depth_step``; the
+    near pixel is the one :func:`mi_npr.kernels.edges.owns` gives the step to)."""
+    h, w = ids.shape
+    a, b = same_id_cracks(ids)
+    if not len(a):
+        return a, b
+    zf = jit_array(mi.Float, np.asarray(z, np.float32).ravel())
+    frame = None
+    if depth_range is not None:
+        frame = tuple(jit_array(mi.Float, np.array([v], np.float32)) for v in depth_range)
+    D = np.asarray(depth_field(zf, frame=frame)(zf).numpy()).reshape(h, w)
+    da = jit_array(mi.Float, D[a[:, 1], a[:, 0]])
+    db = jit_array(mi.Float, D[b[:, 1], b[:, 0]])
+    step = depth_step()
+    a_near = np.asarray(owns(da, db, step, mi.Bool(False)).numpy(), bool)
+    b_near = np.asarray(owns(db, da, step, mi.Bool(False)).numpy(), bool)
+    return np.concatenate([a[a_near], b[b_near]]), np.concatenate([b[a_near], a[b_near]])
+
+
+def _located(
+    seen_at: SeenAt, near: np.ndarray, far: np.ndarray, k: np.ndarray, z: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where the segment from the centre of pixel ``near`` to that of ``far`` (M, 2) crosses
+    a depth step of object ``k``, and whether it does (module docstring). ``z`` (H, W): the
+    depths at the pixel centres."""
+    start = near + 0.5
+    step = (far - near).astype(np.float64)
+    lo, hi = np.zeros(len(near)), np.ones(len(near))
+    z_lo, z_hi = z[near[:, 1], near[:, 0]], z[far[:, 1], far[:, 0]]
+    for _ in range(ITERATIONS):
+        mid = 0.5 * (lo + hi)
+        oid, z_mid = seen_at(start + mid[:, None] * step)
+        # the step lies in the half whose ends differ more in depth; a point that does not
+        # see k is beyond the step (the near side ends before it)
+        on = oid == k
+        upper = on & (z_mid - z_lo < z_hi - z_mid)
+        lo, z_lo = np.where(upper, mid, lo), np.where(upper, z_mid, z_lo)
+        hi, z_hi = np.where(upper, hi, mid), np.where(upper | ~on, z_hi, z_mid)
+    xy = start + (0.5 * (lo + hi))[:, None] * step
+    # a step, not a steep slope: the depths on either side differ nearly as much at a
+    # quarter of the distance (a smooth surface's difference shrinks with it, near a limb as
+    # its square root: to a half)
+    at = [xy + e * step for e in (-2 * PROBE, 2 * PROBE, -PROBE / 2, PROBE / 2)]
+    oid, depth = seen_at(np.concatenate(at))
+    near_id, (d0, d1, d2, d3) = oid[: len(xy)], depth.reshape(4, -1)
+    with np.errstate(invalid="ignore"):  # inf - inf: the background on the far side
+        jump = np.isinf(d3) | (d3 - d2 > 0.75 * (d1 - d0))
+    ok = (near_id == k) & (d1 > d0 * (1.0 + RISE)) & jump
+    return xy, ok
+
+
+def _crack_corners(near: np.ndarray, far: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two ends of each crack between pixels ``near`` and ``far`` (M, 2), as pixel corners
+    ``(x, y)`` (2M, 2) (first ends, then second ends), and the crack's slot at each (2M,): 0
+    up, 1 right, 2 down, 3 left of the corner, the order around it. A crack between ``(x,
+    y)`` and ``(x + 1, y)`` runs from corner ``(x + 1, y)`` down to ``(x + 1, y + 1)``, one
+    between ``(x, y)`` and ``(x, y + 1)`` from ``(x, y + 1)`` right to ``(x + 1, y + 1)``."""
+    lo = np.minimum(near, far)
+    axis = (far - near)[:, 1] != 0
+    c0 = lo + np.where(axis[:, None], [0, 1], [1, 0])
+    slots = np.concatenate([np.where(axis, 1, 2), np.where(axis, 3, 0)])
+    return np.concatenate([c0, lo + 1]), slots
+
+
+def _ends(near: np.ndarray, far: np.ndarray) -> np.ndarray:
+    """The pixel corners (E, 2) where exactly one of the cracks ``near``/``far`` ends."""
+    corners, _ = _crack_corners(near, far)
+    key, count = np.unique(corners, axis=0, return_counts=True)
+    return key[count == 1]
+
+
+def _corner_pieces(near: np.ndarray, far: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """The pieces (P, 2) between the cracks of ``near``/``far`` (M cracks) that meet at a
+    pixel corner (module docstring): two cracks at a corner are joined; of three, the two
+    opposite ones, and the third to the nearer of them (``xy``: the cracks' vertices); of four,
+    each to its opposite."""
+    corners, slots = _crack_corners(near, far)
+    crack = np.concatenate([np.arange(len(near))] * 2)
+    key, inv = np.unique(corners, axis=0, return_inverse=True)
+    table = np.full((len(key), 4), -1, np.int64)
+    table[inv.ravel(), slots] = crack
+    have = table >= 0
+    count = have.sum(1)
+    pieces = []
+    two = table[count == 2]
+    pieces.append(two[two >= 0].reshape(-1, 2))
+    four = table[count == 4]
+    pieces += [four[:, [0, 2]], four[:, [1, 3]]]
+    three = table[count == 3]
+    if len(three):
+        m = np.argmin(three >= 0, axis=1)  # the missing slot
+        r = np.arange(len(three))
+        bar_a, bar_b = three[r, (m + 1) % 4], three[r, (m + 3) % 4]
+        stem = three[r, (m + 2) % 4]
+        da = np.hypot(*(xy[bar_a] - xy[stem]).T)
+        db = np.hypot(*(xy[bar_b] - xy[stem]).T)
+        pieces += [
+            np.stack([bar_a, bar_b], 1),
+            np.stack([stem, np.where(da <= db, bar_a, bar_b)], 1),
+        ]
+    return np.concatenate(pieces).astype(np.int64)
+
+
+def _key(near: np.ndarray, far: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Index of each crack in an (H + 1, W + 1, 2) array: its second corner, its axis."""
+    c = np.maximum(near, far)
+    return c[:, 1], c[:, 0], ((far - near)[:, 1] != 0).astype(np.int64)
+
+
+def depth_step_paths(
+    ids: np.ndarray,
+    z: np.ndarray,
+    seen_at: SeenAt,
+    depth_range: tuple[float, float] | None = None,
+) -> list[VectorPath]:
+    """The self-occlusion outlines of ``ids`` (H, W) as paths (module docstring): the depth
+    steps of :func:`step_cracks`, each located by bisection along its crack (``seen_at(xy)``:
+    the outline id and depth seen through film positions ``xy`` (N, 2)) and followed on to
+    where they vanish, chained at the pixel corners where they meet; every vertex of a path is
+    a step's."""
+    near, far = step_cracks(ids, z, depth_range)
+    if not len(near):
+        return []
+    h, w = ids.shape
+    tried = np.zeros((h + 1, w + 1, 2), bool)  # by a crack's second corner and its axis
+    tried[_key(near, far)] = True
+    xy, ok = _located(seen_at, near, far, ids[near[:, 1], near[:, 0]], z)
+    near, far, xy = near[ok], far[ok], xy[ok]
+    if not len(near):
+        return []
+    # every crack within one object, its nearer pixel first: where fainter steps are looked for
+    a, b = same_id_cracks(ids)
+    swap = (z[b[:, 1], b[:, 0]] < z[a[:, 1], a[:, 0]])[:, None]
+    a, b = np.where(swap, b, a), np.where(swap, a, b)
+    corners_ab, _ = _crack_corners(a, b)
+    for _ in range(GROW_ROUNDS):
+        ends = _ends(near, far)
+        if not len(ends):
+            break
+        region = np.zeros((h + 1, w + 1), bool)
+        region[ends[:, 1], ends[:, 0]] = True
+        region = maximum_filter(region, 2 * GROW + 1)
+        c0, c1 = corners_ab[: len(a)], corners_ab[len(a) :]
+        inside = region[c0[:, 1], c0[:, 0]] | region[c1[:, 1], c1[:, 0]]
+        cand = np.flatnonzero(inside & ~tried[_key(a, b)])
+        if not len(cand):
+            break
+        tried[_key(a[cand], b[cand])] = True
+        kc = ids[a[cand, 1], a[cand, 0]]
+        gxy, gok = _located(seen_at, a[cand], b[cand], kc, z)
+        if not gok.any():
+            break
+        near = np.concatenate([near, a[cand][gok]])
+        far = np.concatenate([far, b[cand][gok]])
+        xy = np.concatenate([xy, gxy[gok]])
+    k = ids[near[:, 1], near[:, 0]]
+    pieces = _corner_pieces(near, far, xy)
+    pieces = pieces[k[pieces[:, 0]] == k[pieces[:, 1]]]  # steps of two objects never join
+    d = xy[pieces[:, 1]] - xy[pieces[:, 0]]
+    order, rev, start, closed = chain_order(
+        pieces[:, 0], pieces[:, 1], k[pieces[:, 0]], d, -d, 180.0
+    )
+    out = []
+    for c, is_closed in enumerate(closed.tolist()):
+        steps = order[start[c] : start[c + 1]]
+        walk = np.where(
+            rev[start[c] : start[c + 1]][:, None], pieces[steps][:, ::-1], pieces[steps]
+        )
+        seq = walk[:, 0] if is_closed else np.append(walk[:, 0], walk[-1, 1])
+        oid = int(k[seq[0]])
+        out.append(VectorPath(oid, f"object_{oid}", xy[seq], bool(is_closed)))
+    return out
+
+
+# ------------------------------------------------------------------------ kinds and runs
+
+
+def _sides(
+    in_a: np.ndarray, a: dict, b: dict
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The probes of the inside (where ``in_a``: ``a``, else ``b``) and of the outside."""
     inside = {key: np.where(_col(in_a, a[key]), a[key], b[key]) for key in a}
     outside = {key: np.where(_col(in_a, a[key]), b[key], a[key]) for key in a}
+    return inside, outside
+
+
+def _id_outline_state(k: int, a: dict, b: dict) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Per vertex of an id outline of object ``k``: its state (-1 dropped, else kind (0
+    silhouette, 1 border) + 2 * glass) and the inside probe (module docstring)."""
+    k = np.uint32(k)
+    in_a = a["hit"] & (a["object_id"] == k)
+    in_b = b["hit"] & (b["object_id"] == k)
+    inside, outside = _sides(in_a, a, b)
+    farther = ~outside["hit"] | (outside["depth"] > inside["depth"] * (1.0 + RISE))
+    return _state(in_a ^ in_b, farther, inside), inside
+
+
+def _depth_step_state(k: int, a: dict, b: dict) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """:func:`_id_outline_state` of a self-occlusion outline: the inside is the nearer probe,
+    which sees ``k``."""
+    inside, outside = _sides(a["depth"] <= b["depth"], a, b)
+    ok = inside["hit"] & (inside["object_id"] == np.uint32(k))
+    farther = outside["depth"] > inside["depth"] * (1.0 + RISE)
+    return _state(ok, farther, inside), inside
+
+
+def _state(ok: np.ndarray, farther: np.ndarray, inside: dict) -> np.ndarray:
     grazing = inside["cos"] < GRAZING
-    farther = ~outside["hit"] | (outside["depth"] > inside["depth"] * (1.0 + 1e-3))
-    keep = ok & farther
-    # state of each vertex: -1 dropped, else kind (0 silhouette, 1 border) + 2 * glass
-    state = np.where(keep, np.where(grazing, 0, 1) + 2 * inside["glass"].astype(int), -1)
+    kind = np.where(grazing, 0, 1) + 2 * inside["glass"].astype(int)
+    return np.where(ok & farther, kind, -1)
+
+
+def _path_strokes(path: VectorPath, state: np.ndarray, inside: dict) -> list[Stroke]:
+    """The strokes of ``path``: its runs of vertices of one ``state`` (not -1), the whole
+    path where every vertex of a closed one has the same."""
+    k = np.uint32(path.object_id)
     n = len(state)
     pts = path.points
     runs: list[tuple[np.ndarray, bool]] = []
