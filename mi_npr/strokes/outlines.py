@@ -35,10 +35,12 @@ that they cross:
 - *Location*: ``ITERATIONS`` halvings of the segment between the two pixel centres, each
   keeping the half whose ends differ more in depth (a point that does not see ``k`` lies
   beyond the near side); then the step is *confirmed*: towards the near pixel ``k`` is seen,
-  towards the far one a surface farther by ``RISE`` (or nothing) at ``2 PROBE`` px, and the
-  depths differ by at least three quarters of that at ``PROBE / 2`` px (a step's difference
-  stays, a smooth surface's shrinks with the distance, near a limb as its square root: to a
-  half). A steep slope of one surface is no outline.
+  towards the far one a surface farther by ``RISE`` (or nothing) at ``STEP_PROBE`` px, and the
+  depths differ by at least three quarters of that at ``STEP_PROBE / 4`` px (a step's
+  difference stays, a smooth surface's shrinks with the distance, near a limb as its square
+  root: to a half). A steep slope of one surface is no outline. ``STEP_PROBE`` (0.02 px) lies
+  beyond the rounding of the intersections at a rim seen at a grazing angle, which flip
+  between its two sides within about 0.002 px of it: the vertex lies in that band.
 - *Following*: from the ends of the confirmed steps, every crack within ``GROW`` px (of one
   id, the nearer pixel first) is located and confirmed the same way, in rounds, until a round
   confirms nothing new (at most ``GROW_ROUNDS``). So an outline that is a depth line somewhere
@@ -46,21 +48,25 @@ that they cross:
   the step fades to nothing); one that never is, is not drawn.
 - *Chaining*: two confirmed cracks that meet at a pixel corner are joined; of three, the two
   opposite ones, and the third to the nearer of them (a T); of four, each to its opposite (a
-  crossing). :func:`mi_npr.strokes.chain.chain_order` (at any turn) makes the paths.
+  crossing). Where an outline runs through pixel centres, a pixel on it reads either side and
+  two of its cracks may share no corner: the ends of two chains of one object within
+  ``BRIDGE`` px are joined too, the nearest first.
+  :func:`mi_npr.strokes.chain.chain_order` (at any turn) makes the paths.
 
 Where a self-occlusion outline runs between the pixel centres and an id outline, within a
 pixel of it, no crack crosses it, and it is not drawn: a tube's rim ends a few pixels before
 the point where it touches the side outline (tangentially), within a pixel of that outline.
 
-**Kinds.** Each vertex is then *probed*: two rays at ``PROBE`` px on either side of the
-outline, across its local tangent. The *inside* is the side that sees ``k`` (of an id
-outline), or the nearer side (of a self-occlusion outline: it must see ``k``); its hit gives the
-vertex's 3-D position, depth and primitive. A vertex is on ``k``'s own outline (and kept)
-when the outside sees nothing or a surface farther than the inside one (by more than
-``RISE``); it is a **silhouette** where the inside surface is seen edge-on, ``|n . d| <
-GRAZING`` (``n`` its normal, ``d`` the ray: the surface turns away; a sphere's limb: at
-``PROBE`` px inside the limb of a sphere of radius ``R`` px, ``|n . d|`` is about ``sqrt(2
-PROBE / R)``, 0.014 for ``R = 20``), else a **border** (an open edge: the rim of a disk, of an
+**Kinds.** Each vertex is then *probed*: two rays at ``PROBE`` px (``STEP_PROBE`` px for a
+self-occlusion outline) on either side of the outline, across its local tangent. The *inside*
+is the side that sees ``k`` (of an id outline), or the nearer side (of a self-occlusion
+outline: it must see ``k``); its hit gives the vertex's 3-D position, depth and primitive. A
+vertex is on ``k``'s own outline (and kept) when the outside sees nothing or a surface
+farther than the inside one (by more than ``RISE``); it is a **silhouette** where the
+inside surface is seen edge-on, ``|n . d| < GRAZING`` (``n`` its normal, ``d`` the ray: the
+surface turns away; a sphere's limb: at ``PROBE`` px inside the limb of a sphere of radius
+``R`` px, ``|n . d|`` is about ``sqrt(2 PROBE / R)``, 0.014 for ``R = 20``; 0.045 at
+``STEP_PROBE``), else a **border** (an open edge: the rim of a disk, of an
 open cylinder, in front of the background or of its own inner wall). Near the point where a
 rim meets a silhouette, the surface inside the rim grazes too: those last pixels of the rim
 are silhouettes. Being seen edge-on is not enough to keep a vertex: where an outline meets a
@@ -104,10 +110,16 @@ GRAZING = 0.25
 TOLERANCE = 0.02
 #: The far side of an outline lies farther than its near side by more than this share.
 RISE = 1e-3
+#: Distance of the side probes of a self-occlusion outline's vertex, in pixels: beyond the
+#: rounding of the intersections at a rim seen at a grazing angle (their hits flip between
+#: the two sides within about 2e-3 px of an open cylinder's rim at 960 x 720).
+STEP_PROBE = 0.02
 #: Self-occlusion outlines are followed on from their ends this far (px) a round...
 GROW = 8
 #: ...for at most this many rounds.
 GROW_ROUNDS = 64
+#: Ends of self-occlusion outlines this close (px) are joined.
+BRIDGE = 1.5
 
 
 def probe(
@@ -303,8 +315,11 @@ def _outlines(
     every = paths + steps
     pts = np.concatenate([p.points for p in every])
     nrm = np.concatenate([normals_2d(p.points, p.closed) for p in every])
-    a = probe(scene, sensor, table, pts + PROBE * nrm, camera, glass)
-    b = probe(scene, sensor, table, pts - PROBE * nrm, camera, glass)
+    nrm *= np.repeat([PROBE] * len(paths) + [STEP_PROBE] * len(steps), [len(p) for p in every])[
+        :, None
+    ]
+    a = probe(scene, sensor, table, pts + nrm, camera, glass)
+    b = probe(scene, sensor, table, pts - nrm, camera, glass)
     out: list[Stroke] = []
     start = 0
     for i, path in enumerate(every):
@@ -389,7 +404,7 @@ def _located(
     # a step, not a steep slope: the depths on either side differ nearly as much at a
     # quarter of the distance (a smooth surface's difference shrinks with it, near a limb as
     # its square root: to a half)
-    at = [xy + e * step for e in (-2 * PROBE, 2 * PROBE, -PROBE / 2, PROBE / 2)]
+    at = [xy + e * step for e in (-STEP_PROBE, STEP_PROBE, -STEP_PROBE / 4, STEP_PROBE / 4)]
     oid, depth = seen_at(np.concatenate(at))
     near_id, (d0, d1, d2, d3) = oid[: len(xy)], depth.reshape(4, -1)
     with np.errstate(invalid="ignore"):  # inf - inf: the background on the far side
@@ -450,6 +465,38 @@ def _corner_pieces(near: np.ndarray, far: np.ndarray, xy: np.ndarray) -> np.ndar
     return np.concatenate(pieces).astype(np.int64)
 
 
+def _bridged(pieces: np.ndarray, xy: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """``pieces`` (P, 2) between cracks of one object (``k``), and one more between each two
+    ends (cracks with one piece or none) of two chains of that object whose vertices ``xy``
+    lie within ``BRIDGE`` px, the nearest first, each end once: where an outline passes through
+    pixel centres, a pixel on it may read either side, and two cracks of it share no corner."""
+    # imported here: scipy.sparse and scipy.spatial slow the start of every command
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    degree = np.bincount(pieces.ravel(), minlength=len(xy))
+    ends = np.flatnonzero(degree <= 1)
+    if len(ends) < 2:
+        return pieces
+    pairs = cKDTree(xy[ends]).query_pairs(BRIDGE, output_type="ndarray")
+    a, b = ends[pairs[:, 0]], ends[pairs[:, 1]]
+    a, b = a[k[a] == k[b]], b[k[a] == k[b]]
+    if not len(a):
+        return pieces
+    graph = coo_matrix((np.ones(len(pieces)), pieces.T), shape=(len(xy),) * 2)
+    _, chain = connected_components(graph, directed=False)
+    extra = []
+    for n in np.argsort(np.hypot(*(xy[a] - xy[b]).T), kind="stable"):
+        p, q = int(a[n]), int(b[n])
+        if degree[p] < 2 and degree[q] < 2 and chain[p] != chain[q]:
+            extra.append((p, q))
+            degree[p] += 1
+            degree[q] += 1
+            chain[chain == chain[q]] = chain[p]
+    return np.concatenate([pieces, np.array(extra, np.int64).reshape(-1, 2)])
+
+
 def _key(near: np.ndarray, far: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Index of each crack in an (H + 1, W + 1, 2) array: its second corner, its axis."""
     c = np.maximum(near, far)
@@ -504,7 +551,7 @@ def depth_step_paths(
         xy = np.concatenate([xy, gxy[gok]])
     k = ids[near[:, 1], near[:, 0]]
     pieces = _corner_pieces(near, far, xy)
-    pieces = pieces[k[pieces[:, 0]] == k[pieces[:, 1]]]  # steps of two objects never join
+    pieces = _bridged(pieces[k[pieces[:, 0]] == k[pieces[:, 1]]], xy, k)
     d = xy[pieces[:, 1]] - xy[pieces[:, 0]]
     order, rev, start, closed = chain_order(
         pieces[:, 0], pieces[:, 1], k[pieces[:, 0]], d, -d, 180.0
