@@ -270,3 +270,31 @@ def test10_quoteattr_round_trips_through_an_xml_parser(value):
     from mi_npr.io.text import quoteattr
 
     assert ET.fromstring(f"<g id={quoteattr(value)}/>").get("id") == value
+
+
+def _number(v: float, digits: int) -> str:
+    """The SVG's number rule, one number at a time: ``digits`` decimals, trailing zeros and a
+    bare point dropped, ``-0`` written ``0``."""
+    t = f"{v:.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if t == "-0" else t
+
+
+@pytest.mark.parametrize("digits", [1, 2, 3])
+def test11_path_numbers_follow_the_rule_one_by_one(digits):
+    from mi_npr.io.svg import _polyline
+
+    rng = np.random.default_rng(digits)
+    edge = [0.0, -0.0, -1e-4, -0.0005, 0.0005, 0.0015, 2.675, 10.0, 100.5, -10.1, 1e6, 1e20]
+    edge += [0.995, 9.99951, -9.99951, math.nan, math.inf, -math.inf, 5e-324, 123.456]
+    for trial in range(400):
+        n = int(rng.integers(1, 9))
+        if trial % 2:
+            pts = rng.choice(edge, (n, 2))
+        else:
+            pts = rng.normal(size=(n, 2)) * 10.0 ** rng.integers(-4, 4)
+        for closed in (False, True):
+            words = [_number(v, digits) for v in pts.reshape(-1)]
+            pairs = [" ".join(words[i : i + 2]) for i in range(0, len(words), 2)]
+            want = "M " + pairs[0] + (" L " + " ".join(pairs[1:]) if n > 1 else "")
+            assert _polyline(pts, closed, digits) == want + (" Z" if closed else "")
+    assert _polyline(np.zeros((0, 2)), True, digits) == ""
