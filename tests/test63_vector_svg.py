@@ -298,3 +298,31 @@ def test11_path_numbers_follow_the_rule_one_by_one(digits):
             want = "M " + pairs[0] + (" L " + " ".join(pairs[1:]) if n > 1 else "")
             assert _polyline(pts, closed, digits) == want + (" Z" if closed else "")
     assert _polyline(np.zeros((0, 2)), True, digits) == ""
+
+
+@pytest.mark.parametrize("radius", [0.0, 1.0, math.sqrt(2), 2.0, 2.5, 3.0, 4.9, 31.99, 32.0, 40.0])
+def test12_near_is_the_distance_transforms_threshold(radius):
+    from scipy.ndimage import distance_transform_edt
+
+    from mi_npr.contours.vector import _dilate_disk
+
+    rng = np.random.default_rng(int(radius * 100))
+    for h, w, p in [(1, 1, 1.0), (1, 9, 0.2), (23, 2, 0.1), (31, 37, 0.02), (40, 45, 0.3)]:
+        on = rng.random((h, w)) < p
+        on[rng.integers(h), rng.integers(w)] = True
+        assert np.array_equal(_dilate_disk(on, radius), distance_transform_edt(~on) <= radius)
+
+
+def test13_near_polylines_of_a_line_by_brute_force():
+    from mi_npr.contours.vector import near_polylines
+
+    h, w, radius = 20, 30, 2.5
+    lines = [np.array([[3.2, 5.5], [20.7, 5.5]]), np.array([[25.5, 17.9]]), np.zeros((0, 2))]
+    near = near_polylines((h, w), lines, radius)
+    # the pixels the polylines pass through: row 5 from x = 3 to 20, and pixel (25, 17)
+    on = [(5, x) for x in range(3, 21)] + [(17, 25)]
+    for y in range(h):
+        for x in range(w):
+            d = min(math.hypot(x - ox, y - oy) for oy, ox in on)
+            assert near[y, x] == (d <= radius), (y, x)
+    assert not near_polylines((h, w), [np.array([[-5.0, -5.0], [-1.0, -2.0]])], radius).any()
