@@ -326,3 +326,20 @@ def test13_near_polylines_of_a_line_by_brute_force():
             d = min(math.hypot(x - ox, y - oy) for oy, ox in on)
             assert near[y, x] == (d <= radius), (y, x)
     assert not near_polylines((h, w), [np.array([[-5.0, -5.0], [-1.0, -2.0]])], radius).any()
+
+
+def test14_strokes_move_with_their_mask():
+    """Tracing does not depend on where the mask lies in the image: shifted by whole pixels in a
+    larger image, the same polylines, shifted, in the same order (and none for an empty mask)."""
+    rng = np.random.default_rng(5)
+    assert trace_strokes(np.zeros((30, 40), bool)) == []
+    for _ in range(30):
+        small = rng.random((int(rng.integers(1, 12)), int(rng.integers(1, 12)))) < 0.45
+        small[0, 0] = small[-1, -1] = True  # it spans its own box
+        dy, dx = (int(v) for v in rng.integers(0, 20, 2))
+        big = np.zeros((small.shape[0] + 25, small.shape[1] + 31), bool)
+        big[dy : dy + small.shape[0], dx : dx + small.shape[1]] = small
+        want = [p + np.array([dx, dy]) for p in trace_strokes(small)]
+        got = trace_strokes(big)
+        assert len(got) == len(want)
+        assert all(np.array_equal(g, v) for g, v in zip(got, want, strict=True))

@@ -464,8 +464,14 @@ def trace_strokes(mask: Any, tolerance: float = 0.25) -> list[np.ndarray]:
         raise ParameterError(f"stroke mask: expected an (H, W) array, got shape {m.shape}")
     if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance >= 0):
         raise ParameterError(f"tolerance = {tolerance!r}: must be a number >= 0 (pixels)")
-    p, off = _chains(m)
-    p += 0.5
+    # the chains of the mask's bounding box: the same chains, moved by whole pixels (every
+    # pixel beyond it is off the mask), for a fraction of the image's work when it is sparse
+    rows, cols = np.flatnonzero(m.any(axis=1)), np.flatnonzero(m.any(axis=0))
+    if not len(rows):
+        return []
+    y0, x0 = int(rows[0]), int(cols[0])
+    p, off = _chains(m[y0 : int(rows[-1]) + 1, x0 : int(cols[-1]) + 1])
+    p += (x0 + 0.5, y0 + 0.5)  # whole numbers plus 0.5: exact, as through the whole image
     keep = _dp_chains(p, off, float(tolerance))
     counts = np.add.reduceat(keep, off[:-1]) if len(p) else np.zeros(0, np.int64)
     return np.split(p[keep], np.cumsum(counts)[:-1]) if len(counts) else []
