@@ -54,7 +54,7 @@ def to_rgb8(image: np.ndarray, linear: bool = True) -> np.ndarray:
         return a
     # NaN is black, +inf white, -inf black (a NaN cast to uint8 is undefined): fmax drops NaN,
     # so clipping with fmax and fmin is nan_to_num(nan=0, posinf=1, neginf=0) and a clip to
-    # [0, 1] in two passes (a zero's sign aside, which no code keeps)
+    # [0, 1] in two passes (but for the sign of a zero, which no 8-bit code keeps)
     y = a.astype(np.float32)
     np.fmax(y, 0.0, out=y)
     np.fmin(y, 1.0, out=y)

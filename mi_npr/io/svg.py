@@ -206,10 +206,11 @@ def style_arrays(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The widths and the opacities ``style`` gives the vertices of ``strokes``
     (:meth:`~mi_npr.strokes.style.Style.widths`, :meth:`~mi_npr.strokes.style.Style.opacity`),
-    one stroke after the other, and where each stroke's end (``ends[k]``). The same numbers
-    as stroke by stroke, in fewer calls: a vertex's opacity, and its width without a taper, are
-    of that vertex alone, so all strokes take one call each; a taper's arc lengths are summed
-    along each stroke, so with a taper the widths take a call a stroke."""
+    one stroke after the other, and where each stroke ends (``ends[k]``, one past its last
+    vertex). The same numbers as stroke by stroke, in fewer calls: a vertex's opacity, and its
+    width without a taper, are of that vertex alone, so all strokes take one call each; a
+    taper's arc lengths are summed along each stroke, so with a taper the widths take a call a
+    stroke."""
     ends = np.cumsum([len(s) for s in strokes], dtype=np.int64)
     if not strokes:
         return np.zeros(0), np.zeros(0), ends
