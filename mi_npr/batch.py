@@ -76,7 +76,7 @@ from .errors import (
     shown,
 )
 from .io import check_writable_dir
-from .io.manifest import MANIFEST, append_row, check_manifest, read_rows, scene_hash
+from .io.manifest import MANIFEST, Appender, check_manifest, read_rows, scene_hash
 from .params import (
     MAX_RETRIES,
     MAX_THREADS,
@@ -843,8 +843,10 @@ def run(
     if progress and pending:
         bar = tqdm(total=len(jobs), initial=len(rows), desc="batch", unit="job")
 
+    rows_file = Appender(manifest)
+
     def record(row: dict[str, Any]) -> None:
-        append_row(manifest, row)
+        rows_file.append(row)
         rows[row["job"]] = row
         if row["status"] == "done":
             _remove_replaced(outdir, row, earlier.get(row["job"], []), jobs, flat)
@@ -878,6 +880,7 @@ def run(
     finally:
         if bar is not None:
             bar.close()
+        rows_file.close()
     _warn_left(outdir, earlier, jobs, flat)
     return [rows[j.id] for j in jobs if j.id in rows]
 

@@ -37,8 +37,12 @@ def over(rgb: np.ndarray, alpha: np.ndarray, color: Sequence[float]) -> np.ndarr
     c = np.asarray(color, dtype=np.float32).reshape(-1)
     if c.size != 3:
         raise ParameterError(f"over: color {tuple(color)!r} is not an RGB triple")
-    a = np.clip(np.nan_to_num(a, nan=0.0), 0.0, 1.0)[..., None]
-    return rgb * (1.0 - a) + c * a
+    a = np.clip(np.nan_to_num(a, nan=0.0), 0.0, 1.0)
+    keep = 1.0 - a
+    out = np.empty(rgb.shape, np.float32)
+    for i in range(3):  # a channel at a time: numpy is slow on an innermost axis of 3
+        np.add(rgb[..., i] * keep, c[i] * a, out=out[..., i])
+    return out
 
 
 def _coverage(alpha: Any, shape: tuple[int, int]) -> Any:

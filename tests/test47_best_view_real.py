@@ -263,6 +263,12 @@ def test09_view_warning_bounds():
     assert view_warning(0.0, dark) == f"its mean luminance is {DARK_LUMINANCE / 2:.3g}"
     both = view_warning(1.0, np.zeros((2, 2, 3)))
     assert "100% of it is background and its mean luminance is 0" == both
+    # a NaN pixel counts as black; an infinite one makes the view bright
+    dim = np.full((10, 10, 3), 0.005)
+    dim[3, 4] = np.nan
+    assert view_warning(0.0, dim) == f"its mean luminance is {0.005 * 99 / 100:.3g}"
+    dim[5, 5] = np.inf
+    assert view_warning(0.0, dim) is None
 
 
 @pytest.mark.parametrize("measure", MEASURES)

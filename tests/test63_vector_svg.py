@@ -270,3 +270,76 @@ def test10_quoteattr_round_trips_through_an_xml_parser(value):
     from mi_npr.io.text import quoteattr
 
     assert ET.fromstring(f"<g id={quoteattr(value)}/>").get("id") == value
+
+
+def _number(v: float, digits: int) -> str:
+    """The SVG's number rule, one number at a time: ``digits`` decimals, trailing zeros and a
+    bare point dropped, ``-0`` written ``0``."""
+    t = f"{v:.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if t == "-0" else t
+
+
+@pytest.mark.parametrize("digits", [1, 2, 3])
+def test11_path_numbers_follow_the_rule_one_by_one(digits):
+    from mi_npr.io.svg import _polyline
+
+    rng = np.random.default_rng(digits)
+    edge = [0.0, -0.0, -1e-4, -0.0005, 0.0005, 0.0015, 2.675, 10.0, 100.5, -10.1, 1e6, 1e20]
+    edge += [0.995, 9.99951, -9.99951, math.nan, math.inf, -math.inf, 5e-324, 123.456]
+    for trial in range(400):
+        n = int(rng.integers(1, 9))
+        if trial % 2:
+            pts = rng.choice(edge, (n, 2))
+        else:
+            pts = rng.normal(size=(n, 2)) * 10.0 ** rng.integers(-4, 4)
+        for closed in (False, True):
+            words = [_number(v, digits) for v in pts.reshape(-1)]
+            pairs = [" ".join(words[i : i + 2]) for i in range(0, len(words), 2)]
+            want = "M " + pairs[0] + (" L " + " ".join(pairs[1:]) if n > 1 else "")
+            assert _polyline(pts, closed, digits) == want + (" Z" if closed else "")
+    assert _polyline(np.zeros((0, 2)), True, digits) == ""
+
+
+@pytest.mark.parametrize("radius", [0.0, 1.0, math.sqrt(2), 2.0, 2.5, 3.0, 4.9, 31.99, 32.0, 40.0])
+def test12_near_is_the_distance_transforms_threshold(radius):
+    from scipy.ndimage import distance_transform_edt
+
+    from mi_npr.contours.vector import _dilate_disk
+
+    rng = np.random.default_rng(int(radius * 100))
+    for h, w, p in [(1, 1, 1.0), (1, 9, 0.2), (23, 2, 0.1), (31, 37, 0.02), (40, 45, 0.3)]:
+        on = rng.random((h, w)) < p
+        on[rng.integers(h), rng.integers(w)] = True
+        assert np.array_equal(_dilate_disk(on, radius), distance_transform_edt(~on) <= radius)
+
+
+def test13_near_polylines_of_a_line_by_brute_force():
+    from mi_npr.contours.vector import near_polylines
+
+    h, w, radius = 20, 30, 2.5
+    lines = [np.array([[3.2, 5.5], [20.7, 5.5]]), np.array([[25.5, 17.9]]), np.zeros((0, 2))]
+    near = near_polylines((h, w), lines, radius)
+    # the pixels the polylines pass through: row 5 from x = 3 to 20, and pixel (25, 17)
+    on = [(5, x) for x in range(3, 21)] + [(17, 25)]
+    for y in range(h):
+        for x in range(w):
+            d = min(math.hypot(x - ox, y - oy) for oy, ox in on)
+            assert near[y, x] == (d <= radius), (y, x)
+    assert not near_polylines((h, w), [np.array([[-5.0, -5.0], [-1.0, -2.0]])], radius).any()
+
+
+def test14_strokes_move_with_their_mask():
+    """Tracing does not depend on where the mask lies in the image: shifted by whole pixels in a
+    larger image, the same polylines, shifted, in the same order (and none for an empty mask)."""
+    rng = np.random.default_rng(5)
+    assert trace_strokes(np.zeros((30, 40), bool)) == []
+    for _ in range(30):
+        small = rng.random((int(rng.integers(1, 12)), int(rng.integers(1, 12)))) < 0.45
+        small[0, 0] = small[-1, -1] = True  # it spans its own box
+        dy, dx = (int(v) for v in rng.integers(0, 20, 2))
+        big = np.zeros((small.shape[0] + 25, small.shape[1] + 31), bool)
+        big[dy : dy + small.shape[0], dx : dx + small.shape[1]] = small
+        want = [p + np.array([dx, dy]) for p in trace_strokes(small)]
+        got = trace_strokes(big)
+        assert len(got) == len(want)
+        assert all(np.array_equal(g, v) for g, v in zip(got, want, strict=True))

@@ -83,3 +83,43 @@ def test04_drawing_needs_lines():
     gb = mi_npr.GBuffer({L.Z: np.ones((2, 2), np.float32)})
     with pytest.raises(mi_npr.ParameterError, match=r"no 'lines\.V' layer"):
         lines_on_paper(gb)
+
+
+def test05_srgb_encoding_is_the_formula_bit_for_bit():
+    """The PNG writers' encoding against IEC 61966-2-1 written out in float32 (NaN black, +inf
+    white, -inf black, alpha stored linear)."""
+    from mi_npr.io.png import linear_to_srgb, to_rgb8
+
+    x = np.linspace(-0.01, 1.01, 2_000_001).astype(np.float32)
+    x = np.concatenate([x, np.arange(0, 0x3F800001, 4099, dtype=np.uint32).view(np.float32)])
+    x = np.concatenate([x, np.array([np.nan, np.inf, -np.inf, 3.0, -2.0], np.float32)])
+    c = np.clip(np.nan_to_num(x, nan=0.0), 0.0, 1.0)
+    want = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+    assert want.dtype == np.float32 and linear_to_srgb(x).tobytes() == want.tobytes()
+    clean = np.nan_to_num(x, nan=0.0, posinf=1.0, neginf=0.0)
+    c = np.clip(clean, 0.0, 1.0)
+    srgb = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+    rgba = np.stack([x, x[::-1], x, x[::-1]], -1).reshape(-1, 4, 4)
+    got = to_rgb8(rgba)
+    alpha = np.clip(clean[::-1], 0.0, 1.0)
+    for i, v in enumerate((srgb, srgb[::-1], srgb, alpha)):
+        assert np.array_equal(got[..., i].reshape(-1), (v * 255.0 + 0.5).astype(np.uint8))
+    assert np.array_equal(
+        to_rgb8(x.reshape(1, -1), linear=False)[0], (c * 255.0 + 0.5).astype(np.uint8)
+    )
+
+
+def test06_over_is_the_mix_bit_for_bit():
+    from mi_npr.compose import over
+
+    rng = np.random.default_rng(0)
+    rgb = rng.normal(size=(13, 17, 3)).astype(np.float32)
+    a = rng.normal(0.5, 0.6, (13, 17)).astype(np.float32)
+    a[::3, ::4], a[1::5, 2::3], a[2::4, ::5] = np.nan, 0.0, 1.0
+    color = (0.25, 0.7, 1.5)
+    k = np.clip(np.where(np.isnan(a), 0.0, a), 0.0, 1.0).astype(np.float32)[..., None]
+    want = rgb * (np.float32(1) - k) + np.asarray(color, np.float32) * k
+    got = over(rgb, a, color)
+    assert got.dtype == np.float32 and got.tobytes() == want.tobytes()
+    sheet = np.broadcast_to(np.float32(0.9), (13, 17, 3))
+    assert over(sheet, a, color).tobytes() == (sheet * (1 - k) + np.float32(color) * k).tobytes()

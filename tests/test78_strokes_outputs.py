@@ -9,6 +9,7 @@ checked against the strokes the library returns for the same scene and against e
 from __future__ import annotations
 
 import json
+import math
 import xml.etree.ElementTree as ET
 
 import mitsuba as mi
@@ -178,3 +179,77 @@ def test07_docstring_examples_run():
     import mi_npr.strokes
 
     assert doctest.testmod(mi_npr.strokes, optionflags=0).failed == 0
+
+
+def _hand_made(rng, n_strokes=40):
+    """Strokes of 1 to 7 vertices with non-finite depths, positions and film points here and
+    there, some without ``depth_behind``, hidden and visible, open and closed."""
+    from mi_npr.strokes import KINDS, Stroke, Strokes
+
+    strokes = []
+    for i in range(n_strokes):
+        n = int(rng.integers(1, 8))
+        s = Stroke(
+            kind=KINDS[i % 5],
+            points=rng.uniform(-2, 66, (n, 2)),
+            position=rng.normal(size=(n, 3)),
+            depth=rng.uniform(1, 9, n),
+            object_id=np.full(n, 1 + i % 3),
+            prim=rng.integers(0, 99, n),
+            qi=int(i % 4 == 3),
+            closed=bool(i % 3 == 0),
+            depth_behind=None if i % 5 == 4 else rng.uniform(1, 12, n),
+        )
+        if i % 6 == 1:
+            s.depth[0], s.points[-1, 1], s.position[0, 2] = np.inf, np.nan, -np.inf
+            if s.depth_behind is not None:
+                s.depth_behind[-1] = np.inf
+        strokes.append(s)
+    return Strokes(strokes, 64, 48, {1: "a", 2: "b"}, depth_range=(1.5, 8.0))
+
+
+def _expected(a):
+    """``a`` (an array or None) as JSON values: floats, ``None`` where not finite."""
+    if a is None:
+        return None
+    a = np.asarray(a, np.float64)
+    if a.ndim > 1:
+        return [_expected(row) for row in a]
+    return [float(v) if math.isfinite(v) else None for v in a]
+
+
+@pytest.mark.parametrize("preset", ["technical", "illustration", "thesis"])
+def test08_json_holds_each_strokes_numbers_with_null_where_not_finite(preset):
+    from mi_npr.io.strokes import stroke_json
+    from mi_npr.strokes.drawing import StrokeDrawing
+    from mi_npr.strokes.style import style_of
+
+    st = _hand_made(np.random.default_rng(1))
+    style = style_of(preset)
+    doc = json.loads(stroke_json(StrokeDrawing(st, style, np.zeros((48, 64)), None)))
+    assert len(doc["strokes"]) == len(st)
+    for i, (row, s) in enumerate(zip(doc["strokes"], st, strict=True)):
+        assert (row["id"], row["object_id"], row["qi"]) == (i, int(s.object_id[0]), s.qi)
+        for key, field in (("points", "points"), ("position", "position"), ("depth", "depth")):
+            assert row[key] == _expected(getattr(s, field)), (i, key)
+        assert row["depth_behind"] == _expected(s.depth_behind)
+        assert row["object_ids"] == [int(v) for v in s.object_id]
+        assert row["prims"] == [int(v) for v in s.prim]
+        # the style's numbers for this stroke alone
+        assert row["width"] == _expected(style.widths(s, st.depth_range))
+        assert row["opacity"] == _expected(style.opacity(s, st.depth_range))
+
+
+@pytest.mark.parametrize("preset", ["technical", "illustration", "thesis"])
+def test09_style_arrays_are_each_strokes_own(preset):
+    from mi_npr.io.svg import style_arrays
+    from mi_npr.strokes.style import style_of
+
+    st = _hand_made(np.random.default_rng(2))
+    style = style_of(preset, depth_falloff=0.5)
+    widths, opacity, ends = style_arrays(st.strokes, style, st.depth_range)
+    starts = [0, *ends[:-1].tolist()]
+    for s, a, b in zip(st.strokes, starts, ends.tolist(), strict=True):
+        # bit for bit: the SVG's and the JSON's numbers are those of one stroke at a time
+        assert widths[a:b].tobytes() == style.widths(s, st.depth_range).tobytes()
+        assert opacity[a:b].tobytes() == style.opacity(s, st.depth_range).tobytes()

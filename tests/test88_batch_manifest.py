@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import multiprocessing as mp
 import os
+import signal
 
 import dask
 import pytest
@@ -349,3 +350,55 @@ def test13_no_bars_off_a_terminal_but_every_line(write_scene, tmp_path, capsys):
     code, err = _main(["render", str(good), str(bad), "-o", str(tmp_path / "r")], capsys)
     assert code == 1 and "|" not in err and "scene/s" not in err
     assert "bad.xml" in err
+
+
+def _append_and_die(path: str, n: int) -> None:
+    from mi_npr.io.manifest import Appender
+
+    rows = Appender(path)
+    for i in range(n):
+        rows.append({"job": f"j{i}"})
+    os.kill(os.getpid(), signal.SIGKILL)  # no close(), no fsync of the last rows
+
+
+def test14_a_killed_batch_loses_no_row_it_appended(tmp_path):
+    path = str(tmp_path / "m.jsonl")
+    p = mp.get_context("fork").Process(target=_append_and_die, args=(path, 50))
+    p.start()
+    p.join(60)
+    assert p.exitcode == -signal.SIGKILL
+    assert [r["job"] for r in read_rows(path)] == [f"j{i}" for i in range(50)]
+
+
+def test15_a_batchs_rows_are_synced_once_an_interval_and_at_its_end(
+    write_scene, tmp_path, monkeypatch
+):
+    import mi_npr.io.manifest as manifest
+
+    synced: list[int] = []
+    real = os.fsync
+    monkeypatch.setattr(os, "fsync", lambda fd: (synced.append(fd), real(fd))[1])
+    monkeypatch.setattr(manifest, "SYNC_INTERVAL", 3600.0)
+    path = tmp_path / "m.jsonl"
+    rows = manifest.Appender(path)
+    for i in range(5):
+        rows.append({"job": f"j{i}"})
+        assert len(list(read_rows(path))) == i + 1  # in the file at once
+    assert len(synced) == 1  # the first row; the others within the interval
+    rows.close()
+    rows.close()
+    assert len(synced) == 2  # the end of the batch, once
+    monkeypatch.setattr(manifest, "SYNC_INTERVAL", 0.0)
+    rows = manifest.Appender(path)
+    for i in range(3):
+        rows.append({"job": f"k{i}"})
+    rows.close()
+    assert len(synced) == 5  # every row, and nothing left for close()
+    append_row(path, {"job": "alone"})
+    assert len(synced) == 6  # a row appended alone is synced at once
+    # A batch: its first row, then its end.
+    monkeypatch.setattr(manifest, "SYNC_INTERVAL", 3600.0)
+    synced.clear()
+    out = tmp_path / "out"
+    assert [r["status"] for r in _run(write_scene(BODY, spp=1), out)] == ["done"] * 3
+    assert len(synced) == 2 and len(list(read_rows(out / "manifest.jsonl"))) == 3

@@ -1,12 +1,21 @@
 """The batch manifest ``OUT/manifest.jsonl`` and the content hash of a scene.
 
 One JSON object per line, one line per finished or failed job, appended by one process (the
-batch's client) with ``O_APPEND`` and a single ``write()`` of the whole line followed by
-``fsync``: a line is in the file whole or not at all, and lines of concurrent writers never
-interleave. A line cut short (a disk that filled mid-line) ends without a newline; the next
-row written starts with one, so it is never glued onto the cut line. A reader skips a line
-that does not parse, or whose fields have the wrong types (:data:`FIELDS`), with a warning
-naming the line, so a manifest is always readable; the last line of a job wins.
+batch's client) with ``O_APPEND`` and a single ``write()`` of the whole line: a line is in the
+file whole or not at all, and lines of concurrent writers never interleave. A line cut short
+(a disk that filled mid-line) ends without a newline; the next row written starts with one, so
+it is never glued onto the cut line. A reader skips a line that does not parse, or whose fields
+have the wrong types (:data:`FIELDS`), with a warning naming the line, so a manifest is always
+readable; the last line of a job wins.
+
+**What survives what.** A row is in the file (the kernel's page cache) when
+:func:`append_row` returns, before the batch counts its job as recorded: a process killed at
+any moment, ``SIGKILL`` included, loses no recorded row. ``fsync``, needed only to survive a
+power loss or a crash of the machine, follows every row of :func:`append_row` alone. A batch
+appends through an :class:`Appender`, which ``fsync``-s a row at once when the last ``fsync``
+is :data:`SYNC_INTERVAL` seconds old or more, else with the next such row or at the batch's
+end: after a power loss, the rows written since the last ``fsync`` may be missing (as may the
+output files, which are never ``fsync``-ed), and resume runs their jobs again.
 """
 
 from __future__ import annotations
@@ -15,8 +24,10 @@ import contextlib
 import fcntl
 import hashlib
 import json
+import math
 import os
 import stat
+import time
 import warnings
 from collections.abc import Iterator, Mapping
 from typing import Any
@@ -100,8 +111,9 @@ def check_manifest(path: str | os.PathLike[str]) -> None:
             raise OutputError(f"{path}: not a regular file")
 
 
-def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
-    """Append ``row`` as one JSON line to ``path`` atomically (module docstring)."""
+def append_row(path: str | os.PathLike[str], row: Mapping[str, Any], *, sync: bool = True) -> None:
+    """Append ``row`` as one JSON line to ``path`` atomically, and ``fsync`` it when ``sync``
+    (module docstring)."""
     data = (json.dumps(row, sort_keys=True, allow_nan=False, default=str) + "\n").encode()
     fd = _open_regular(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, "write")
     try:
@@ -116,11 +128,53 @@ def append_row(path: str | os.PathLike[str], row: Mapping[str, Any]) -> None:
         n = os.write(fd, data)
         if n != len(data):  # a full disk: the reader skips the partial line
             raise OutputError(f"{path}: manifest line cut short (disk full?)")
-        os.fsync(fd)
+        if sync:
+            os.fsync(fd)
     except OSError as e:
         raise OutputError(f"{path}: cannot write the manifest ({e.strerror})") from None
     finally:
         os.close(fd)
+
+
+#: Seconds between two ``fsync`` of a batch's manifest (:class:`Appender`).
+SYNC_INTERVAL = 1.0
+
+
+class Appender:
+    """A batch's rows appended to its manifest (:func:`append_row`), each written as it comes,
+    ``fsync``-ed at most once every :data:`SYNC_INTERVAL` seconds and by :meth:`close` (module
+    docstring)."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = path
+        self._synced = -math.inf  # time.monotonic() of the last fsync
+        self._pending = False  # rows written since
+
+    def append(self, row: Mapping[str, Any]) -> None:
+        now = time.monotonic()
+        due = now - self._synced >= SYNC_INTERVAL
+        append_row(self.path, row, sync=due)
+        if due:
+            self._synced, self._pending = now, False
+        else:
+            self._pending = True
+
+    def close(self) -> None:
+        """``fsync`` the rows written since the last one (none: nothing to do)."""
+        if not self._pending:
+            return
+        self._pending = False
+        try:
+            fd = _open_regular(self.path, os.O_WRONLY | os.O_APPEND, "write")
+        except FileNotFoundError:  # removed meanwhile: nothing of it to keep
+            return
+        try:
+            os.fsync(fd)
+        except OSError as e:
+            raise OutputError(f"{self.path}: cannot write the manifest ({e.strerror})") from None
+        finally:
+            os.close(fd)
+        self._synced = time.monotonic()
 
 
 def read_rows(path: str | os.PathLike[str]) -> Iterator[dict[str, Any]]:

@@ -27,8 +27,22 @@ def save_png(rgb8: np.ndarray, fp: Any) -> None:
 
 def linear_to_srgb(x: np.ndarray) -> np.ndarray:
     """The sRGB transfer function (IEC 61966-2-1) on linear values, clipped to [0, 1]."""
-    x = np.clip(np.nan_to_num(np.asarray(x, dtype=np.float32), nan=0.0), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    y = np.array(x, dtype=np.float32)
+    np.nan_to_num(y, copy=False, nan=0.0)
+    np.clip(y, 0.0, 1.0, out=y)
+    return _srgb(y)
+
+
+def _srgb(y: np.ndarray) -> np.ndarray:
+    """:func:`linear_to_srgb` of a float32 array in [0, 1], in place: the same float32
+    operations, on the same whole array, with fewer temporaries."""
+    low = y <= 0.0031308
+    linear = 12.92 * y[low]
+    np.power(y, 1 / 2.4, out=y)
+    y *= 1.055
+    y -= 0.055
+    y[low] = linear
+    return y
 
 
 def to_rgb8(image: np.ndarray, linear: bool = True) -> np.ndarray:
@@ -38,15 +52,20 @@ def to_rgb8(image: np.ndarray, linear: bool = True) -> np.ndarray:
         raise ParameterError(f"image = {shown(image)}: expected an (H, W) or (H, W, C) array")
     if a.dtype == np.uint8:
         return a
-    # NaN is black, +inf white, -inf black (a NaN cast to uint8 is undefined).
-    clean = np.nan_to_num(a.astype(np.float32), nan=0.0, posinf=1.0, neginf=0.0)
+    # NaN is black, +inf white, -inf black (a NaN cast to uint8 is undefined): fmax drops NaN,
+    # so clipping with fmax and fmin is nan_to_num(nan=0, posinf=1, neginf=0) and a clip to
+    # [0, 1] in two passes (but for the sign of a zero, which no 8-bit code keeps)
+    y = a.astype(np.float32)
+    np.fmax(y, 0.0, out=y)
+    np.fmin(y, 1.0, out=y)
     if linear:
-        a = linear_to_srgb(clean)
-        if a.ndim == 3 and a.shape[-1] == 4:  # alpha is not colour: store it as is
-            a[..., 3] = np.clip(clean[..., 3], 0.0, 1.0)
-    else:
-        a = np.clip(clean, 0.0, 1.0)
-    return (a * 255.0 + 0.5).astype(np.uint8)
+        alpha = y[..., 3].copy() if y.ndim == 3 and y.shape[-1] == 4 else None
+        _srgb(y)
+        if alpha is not None:  # alpha is not colour: store it as is
+            y[..., 3] = alpha
+    y *= 255.0
+    y += 0.5
+    return y.astype(np.uint8)
 
 
 def write_png(path: str | os.PathLike[str], image: np.ndarray, linear: bool = True) -> Path:

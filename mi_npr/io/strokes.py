@@ -62,8 +62,8 @@ Every stroke is listed, drawn or not (``drawn``: hidden lines with ``hidden`` of
 
 from __future__ import annotations
 
+import itertools
 import json
-import math
 import os
 from pathlib import Path
 from typing import Any
@@ -76,7 +76,7 @@ from ..strokes.model import KINDS
 from ..strokes.raster import on_background
 from ._atomic import check_writable_dir, output_set
 from .png import write_png
-from .svg import StrokeLayer, svg_document
+from .svg import StrokeLayer, style_arrays, svg_document
 from .text import write_text
 
 
@@ -89,39 +89,77 @@ def stroke_svg(drawing: StrokeDrawing, title: str | None = None) -> str:
 
 
 def _finite(a: np.ndarray | None) -> Any:
-    """A nested list with non-finite numbers as ``None``."""
+    """A nested list of floats with the non-finite numbers as ``None``: one ``tolist`` of the
+    array as float64 (the values of ``float(x)`` element by element), ``None`` put in at the
+    non-finite places only."""
     if a is None:
         return None
-    return [
-        _finite(x) if isinstance(x, np.ndarray) else (float(x) if math.isfinite(x) else None)
-        for x in a
-    ]
+    a = np.asarray(a, np.float64)
+    out = a.tolist()
+    bad = ~np.isfinite(a)
+    if bad.any():
+        for index in zip(*np.nonzero(bad), strict=True):
+            row = out
+            for i in index[:-1]:
+                row = row[i]
+            row[index[-1]] = None
+    return out
+
+
+def _finite_runs(values: np.ndarray, ends: np.ndarray) -> list[Any]:
+    """:func:`_finite` of each run ``values[ends[k - 1]:ends[k]]``, from one :func:`_finite` of
+    them all."""
+    rows = _finite(values)
+    bounds = [0, *np.asarray(ends).tolist()]
+    return [rows[a:b] for a, b in itertools.pairwise(bounds)]
+
+
+def _finite_each(arrays: list[np.ndarray | None]) -> list[Any]:
+    """:func:`_finite` of each array (all of one shape but the first axis, or ``None``), in
+    one :func:`_finite` of them all."""
+    present = [a for a in arrays if a is not None]
+    if not present:
+        return [None] * len(arrays)
+    values = np.concatenate([np.asarray(a, np.float64) for a in present])
+    pieces = iter(_finite_runs(values, np.cumsum([len(a) for a in present])))
+    return [None if a is None else next(pieces) for a in arrays]
 
 
 def stroke_json(drawing: StrokeDrawing) -> str:
     """The JSON text of a :class:`~mi_npr.strokes.drawing.StrokeDrawing` (module docstring)."""
     st, style = drawing.strokes, drawing.style
+    strokes = st.strokes
+    widths, opacity, ends = style_arrays(strokes, style, st.depth_range)
+    columns = {
+        "points": _finite_each([s.points for s in strokes]),
+        "position": _finite_each([s.position for s in strokes]),
+        "depth": _finite_each([s.depth for s in strokes]),
+        "depth_behind": _finite_each([s.depth_behind for s in strokes]),
+        "width": _finite_runs(widths, ends),
+        "opacity": _finite_runs(opacity, ends),
+    }
     rows = []
-    for i, s in enumerate(st.strokes):
+    for i, s in enumerate(strokes):
+        oid = np.asarray(s.object_id, np.int64).tolist()
         rows.append(
             {
                 "id": i,
                 "kind": s.kind,
-                "object_id": int(s.object_id[0]),
-                "object": st.name_of(int(s.object_id[0])),
+                "object_id": oid[0],
+                "object": st.name_of(oid[0]),
                 "qi": int(s.qi),
                 "visible": s.qi == 0,
                 "through_glass": bool(s.through_glass),
                 "closed": bool(s.closed),
                 "drawn": style.drawn(s),
-                "points": _finite(s.points),
-                "position": _finite(s.position),
-                "depth": _finite(s.depth),
-                "depth_behind": _finite(s.depth_behind),
-                "object_ids": [int(v) for v in s.object_id],
-                "prims": [int(v) for v in s.prim],
-                "width": _finite(style.widths(s, st.depth_range)),
-                "opacity": _finite(style.opacity(s, st.depth_range)),
+                "points": columns["points"][i],
+                "position": columns["position"][i],
+                "depth": columns["depth"][i],
+                "depth_behind": columns["depth_behind"][i],
+                "object_ids": oid,
+                "prims": np.asarray(s.prim, np.int64).tolist(),
+                "width": columns["width"][i],
+                "opacity": columns["opacity"][i],
             }
         )
     doc = {

@@ -125,15 +125,27 @@ def _num(v: float, digits: int = 2) -> str:
     return "0" if t in ("-0", "") else t
 
 
+#: A number's trailing zeros after the point (and the point, with none left), in a text of
+#: numbers formatted ``%.Nf`` (N >= 1) and separated by spaces ...
+_TRAILING = re.compile(r"\.?0+(?= |$)")
+#: ... and a negative zero left by them.
+_MINUS_ZERO = re.compile(r"(?<!\S)-0(?!\S)")
+
+
 def _polyline(points: np.ndarray, closed: bool, digits: int = 2) -> str:
+    """``M x y L x y ... [Z]``, every number as :func:`_num` writes it: formatted all at once
+    (one ``%`` of a template), then trimmed by two regular expressions over the whole text."""
     if len(points) == 0:
         return ""
-    pts = np.asarray(points, np.float64).tolist()
-    coords = [f"{_num(x, digits)} {_num(y, digits)}" for x, y in pts]
-    d = "M " + coords[0]
-    if len(coords) > 1:
-        d += " L " + " ".join(coords[1:])
-    return d + (" Z" if closed else "")
+    flat = np.asarray(points, np.float64).reshape(-1).tolist()
+    pair = f"%.{digits}f %.{digits}f"
+    text = "M " + pair
+    if len(flat) > 2:
+        text += " L " + " ".join([pair] * (len(flat) // 2 - 1))
+    text = _TRAILING.sub("", text % tuple(flat))
+    if "-0" in text:
+        text = _MINUS_ZERO.sub("0", text)
+    return text + (" Z" if closed else "")
 
 
 def _path_data(contour: Any) -> str:
@@ -189,20 +201,77 @@ def outline_path(stroke: Stroke, widths: np.ndarray) -> str:
     return _polyline(np.concatenate([left, right[::-1]]), True, STROKE_DIGITS)
 
 
+def style_arrays(
+    strokes: Sequence[Stroke], style: Style, depth_range: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The widths and the opacities ``style`` gives the vertices of ``strokes``
+    (:meth:`~mi_npr.strokes.style.Style.widths`, :meth:`~mi_npr.strokes.style.Style.opacity`),
+    one stroke after the other, and where each stroke ends (``ends[k]``, one past its last
+    vertex). The same numbers as stroke by stroke, in fewer calls: a vertex's opacity, and its
+    width without a taper, are of that vertex alone, so all strokes take one call each; a
+    taper's arc lengths are summed along each stroke, so with a taper the widths take a call a
+    stroke."""
+    ends = np.cumsum([len(s) for s in strokes], dtype=np.int64)
+    if not strokes:
+        return np.zeros(0), np.zeros(0), ends
+    opacity = style.vertex_opacity(strokes, depth_range)
+    if style.taper > 0:
+        widths = np.concatenate([style.widths(s, depth_range) for s in strokes])
+    else:
+        widths = style.vertex_widths(strokes, depth_range)
+    return widths, opacity, ends
+
+
+def _runs(ufunc: np.ufunc, values: np.ndarray, ends: np.ndarray) -> list[float]:
+    """``ufunc.reduce`` of each run ``values[ends[k - 1]:ends[k]]`` (an empty run: NaN), in one
+    call for all runs."""
+    starts = np.concatenate([[0], ends[:-1]]).astype(np.int64)
+    out = np.full(len(ends), np.nan)
+    full = np.flatnonzero(ends > starts)
+    if len(full):
+        out[full] = ufunc.reduceat(values, starts[full])
+    return out.tolist()
+
+
 def _stroke_layer(name: str, layer: StrokeLayer, taken: set[str]) -> list[str]:
     """The lines of one :class:`StrokeLayer`: a sub-layer per edge kind (in
     :data:`~mi_npr.strokes.KINDS` order), a group per object (the object of a stroke's first
     vertex), a path per stroke; then the ``traced`` sub-layer."""
     st, style = layer.strokes, layer.style
     out = [_layer(name, name, 'fill="none" stroke-linecap="round" stroke-linejoin="round"')]
+    by_kind: dict[str, dict[int, list[str]]] = {}  # kind -> object -> paths, in stroke order
+    drawn = [(i, s) for i, s in enumerate(st.strokes) if style.drawn(s)]
+    widths, opacity, ends = style_arrays([s for _, s in drawn], style, st.depth_range)
+    # each stroke's extremes in a few calls, not a few calls a stroke (np.ptp is max - min;
+    # fmax skips NaN as np.any(opacity > 0) does)
+    w_hi, w_lo = _runs(np.maximum, widths, ends), _runs(np.minimum, widths, ends)
+    o_hi, o_lo = _runs(np.maximum, opacity, ends), _runs(np.minimum, opacity, ends)
+    seen = _runs(np.fmax, opacity, ends)
+    bounds = np.concatenate([[0], ends]).tolist()
+    for k, (i, s) in enumerate(drawn):
+        if not seen[k] > 0:
+            continue  # transparent everywhere (eq. 5.1 finds no depth step along it)
+        a, b = bounds[k], bounds[k + 1]
+        w, o = widths[a:b], opacity[a:b]
+        attrs = f'class="{"visible" if s.qi == 0 else "hidden"}" data-stroke="{i}" data-qi="{s.qi}"'
+        if s.through_glass:
+            attrs += ' data-through-glass="true"'
+        color = _hex(style.kind_color(s))
+        dash = style.dashes(s)
+        if o_hi[k] - o_lo[k] > 1e-9:
+            path = _opacity_runs(attrs, s, w, o, color, dash)
+        else:
+            if o[0] < 1.0:
+                attrs += f' stroke-opacity="{o[0]:.4g}" fill-opacity="{o[0]:.4g}"'
+            if dash or w_hi[k] - w_lo[k] <= 1e-9 * max(1.0, w_hi[k]):  # stroked
+                path = f"      <path {attrs} {_stroked(s.points, s.closed, w, color, dash)}/>"
+            else:  # filled outline
+                rule = ' fill-rule="evenodd"' if s.closed else ""
+                d = outline_path(s, w)
+                path = f'      <path {attrs} fill="{color}" stroke="none"{rule} d="{d}"/>'
+        by_kind.setdefault(s.kind, {}).setdefault(int(s.object_id[0]), []).append(path)
     for kind in KINDS:
-        groups: dict[int, list[str]] = {}
-        for i, s in enumerate(st.strokes):
-            if s.kind != kind or not style.drawn(s):
-                continue
-            if not np.any(style.opacity(s, st.depth_range) > 0):
-                continue  # transparent everywhere (eq. 5.1 finds no depth step along it)
-            groups.setdefault(int(s.object_id[0]), []).append(_stroke_path(i, s, st, style))
+        groups = by_kind.get(kind)
         if not groups:
             continue
         kid = quoteattr(xml_id(kind, taken, name))
@@ -234,34 +303,14 @@ def _stroke_layer(name: str, layer: StrokeLayer, taken: set[str]) -> list[str]:
     return out
 
 
-def _stroke_path(i: int, s: Stroke, st: Strokes, style: Style) -> str:
-    """One stroke's element (module docstring of :mod:`mi_npr.io.strokes`)."""
-    widths = style.widths(s, st.depth_range)
-    opacity = style.opacity(s, st.depth_range)
-    color = _hex(style.kind_color(s))
-    dash = style.dashes(s)
-    cls = "visible" if s.qi == 0 else "hidden"
-    attrs = f'class="{cls}" data-stroke="{i}" data-qi="{s.qi}"'
-    if s.through_glass:
-        attrs += ' data-through-glass="true"'
-    if float(np.ptp(opacity)) > 1e-9:
-        return _opacity_runs(attrs, s, widths, opacity, color, dash)
-    if opacity[0] < 1.0:
-        attrs += f' stroke-opacity="{opacity[0]:.4g}" fill-opacity="{opacity[0]:.4g}"'
-    constant = float(np.ptp(widths)) <= 1e-9 * max(1.0, float(widths.max()))
-    if dash or constant:
-        return f"      <path {attrs} {_stroked(s.points, s.closed, widths, color, dash)}/>"
-    rule = ' fill-rule="evenodd"' if s.closed else ""
-    return f'      <path {attrs} fill="{color}" stroke="none"{rule} d="{outline_path(s, widths)}"/>'
-
-
 def _stroked(
     points: np.ndarray, closed: bool, widths: np.ndarray, color: str, dash: tuple[float, ...]
 ) -> str:
     extra = ""
     if dash:
         extra = f' stroke-dasharray="{" ".join(_num(x, STROKE_DIGITS) for x in dash)}"'
-    width = _num(float(np.mean(widths)), STROKE_DIGITS)
+    # np.mean's own sum and division, without its wrapper (called once a stroke)
+    width = _num(float(np.add.reduce(widths) / len(widths)), STROKE_DIGITS)
     d = _polyline(points, closed, STROKE_DIGITS)
     return f'stroke="{color}" stroke-width="{width}"{extra} d="{d}"'
 

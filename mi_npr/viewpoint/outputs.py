@@ -55,7 +55,9 @@ def view_warning(empty: float, beauty: np.ndarray) -> str | None:
     ``empty``: the fraction of its pixels that are background; ``beauty`` (H, W, 3) linear RGB."""
     rgb = np.asarray(beauty, np.float64)[..., :3]
     lum = rgb @ np.array([0.2126, 0.7152, 0.0722]) if rgb.size else np.zeros(1)
-    mean = float(np.mean(np.nan_to_num(lum)))
+    if not np.isfinite(lum).all():  # (the copy only where it changes something)
+        lum = np.nan_to_num(lum)
+    mean = float(np.mean(lum))
     why = []
     if empty > EMPTY_FRACTION:
         why.append(f"{100 * empty:.0f}% of it is background")
