@@ -197,21 +197,33 @@ def test03_depth_steps_are_the_lines_drawings():
     assert len(ref) > 20  # the last image has steps
 
 
-def test04_a_sphere_close_to_the_camera_gains_no_stroke(tmp_path):
+LONE_BALL = '<shape type="sphere" id="ball"><float name="radius" value="1"/></shape>'
+#: The same sphere as the one shape of an instance: an instance may group several shapes, so
+#: its depth steps are located, and refused as a smooth surface's.
+GROUPED_BALL = (
+    '<shape type="shapegroup" id="g"><shape type="sphere"><float name="radius" value="1"/>'
+    '</shape></shape><shape type="instance" id="ball"><ref id="g"/></shape>'
+)
+
+
+@pytest.mark.parametrize("body", [LONE_BALL, GROUPED_BALL], ids=["sphere", "instance"])
+def test04_a_sphere_close_to_the_camera_gains_no_stroke(tmp_path, body):
     """A sphere filling most of a wide view: between the pixels next to its limb the depth
     steps as much as the ``lines`` drawing's depth lines do, but the surface is smooth there,
-    so its outline stays one closed silhouette."""
+    so its outline stays one closed silhouette. A lone sphere is never looked at for steps
+    (it cannot hide a part of itself); as an instance's shape, its steps are refused."""
     import mi_npr
-    from mi_npr.strokes.outlines import step_cracks
+    from mi_npr.scene import object_table
+    from mi_npr.strokes.outlines import can_self_occlude, step_cracks
 
     from .helpers import scene_xml
 
     path = tmp_path / "ball.xml"
-    body = '<shape type="sphere" id="ball"><float name="radius" value="1"/></shape>'
     path.write_text(scene_xml(body, width=160, height=120, fov=90.0, origin="0, 0, -2"))
     scene = mi_npr.load_scene(path)
     st = extract_strokes(scene, scene.sensors()[0])
     assert [(s.kind, s.closed) for s in st] == [("silhouette", True)]
+    assert can_self_occlude(object_table(scene))[1] == (body is GROUPED_BALL)
     # the steps were there: the depth of the pixel-centre hits, 0 where they miss
     gb = mi_npr.render(path, width=160, height=120, spp=1)
     z = gb.numpy("Z")

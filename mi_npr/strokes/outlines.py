@@ -31,7 +31,9 @@ that they cross:
   background at 2) differ by more than eq. 5.1's ``t / c``
   (:func:`~mi_npr.kernels.chain.depth_step`, the drawing's defaults: 2.5 % of the frame's
   depth range), the near pixel being the one that owns the step
-  (:func:`mi_npr.kernels.edges.owns`).
+  (:func:`mi_npr.kernels.edges.owns`). Not on a lone sphere or disk
+  (:func:`can_self_occlude`): convex or flat, it never hides a part of itself, and a step
+  next to its limb is a steep slope, which the confirmation below would refuse.
 - *Location*: ``ITERATIONS`` halvings of the segment between the two pixel centres, each
   keeping the half whose ends differ more in depth (a point that does not see ``k`` lies
   beyond the near side); then the step is *confirmed*: towards the near pixel ``k`` is seen,
@@ -247,6 +249,22 @@ def analytic_ids(table: ObjectTable, glass: bool = False) -> np.ndarray:
     return lut
 
 
+#: Shapes (Mitsuba class names) that never hide a part of themselves: a sphere is convex, a
+#: disk flat; the depth seen across one of them is continuous.
+NEVER_SELF_OCCLUDING = frozenset({"Sphere", "Disk"})
+
+
+def can_self_occlude(table: ObjectTable) -> np.ndarray:
+    """Object id -> whether the object can lie in front of itself (N + 1,) bool: every object
+    but a lone shape of :data:`NEVER_SELF_OCCLUDING` (an instance may group several shapes)."""
+    out = np.ones(len(table) + 1, bool)
+    out[0] = False
+    for oid, shape in table.shapes.items():
+        if shape.class_name() in NEVER_SELF_OCCLUDING:
+            out[oid] = False
+    return out
+
+
 def _simplified(idx: np.ndarray, points: np.ndarray, closed: bool) -> np.ndarray:
     """The indices (into ``points``) of the vertices Douglas-Peucker keeps of ``points[idx]``."""
     sub = points[idx]
@@ -295,7 +313,12 @@ def _outlines(
     w, h = (int(v) for v in sensor.film().crop_size())
     gx, gy = film_grid(w, h)
     centres = np.stack([np.asarray(gx.numpy(), np.float64), np.asarray(gy.numpy(), np.float64)], 1)
-    oid, z = ids_and_depths(scene, sensor, table, centres, camera, glass)
+    # the depths only where a self-occlusion outline can be (module docstring)
+    folds = can_self_occlude(table) & (lut > 0)
+    if folds.any():
+        oid, z = ids_and_depths(scene, sensor, table, centres, camera, glass)
+    else:
+        oid, z = object_ids(scene, sensor, table, centres, glass), None
     ids = lut[oid].reshape(h, w)
     if not ids.any():
         return []
@@ -309,7 +332,12 @@ def _outlines(
 
     paths = vectorize(ids, objects=table.names, ids_at=ids_at, tolerance=0.0, iterations=ITERATIONS)
     paths = [p for p in paths if len(p) >= 2]
-    steps = depth_step_paths(ids, z.reshape(h, w), seen_at, depth_range)
+    # only shapes that can be in front of themselves have self-occlusion outlines: seeds on a
+    # sphere's limb or a disk's tilt would be located only to be refused
+    folded = np.where(folds[ids], ids, 0)
+    steps = []
+    if z is not None and folded.any():
+        steps = depth_step_paths(folded, z.reshape(h, w), seen_at, depth_range)
     if not paths and not steps:
         return []
     every = paths + steps
