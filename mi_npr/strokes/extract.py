@@ -24,7 +24,7 @@ vertex (the last vertex of an open stroke: of the edge that arrives).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import drjit as dr
@@ -39,7 +39,7 @@ from ..raycast import cast, film_grid, pixel_rays
 from ..raytree.tracer import MAX_DEPTH
 from ..scene import ObjectTable, object_table
 from .chain import chain_order
-from .edges import FeatureEdges, Projector, feature_edges
+from .edges import FeatureEdges, Projector, ViewEdges, view_edges
 from .model import KINDS, Stroke, Strokes
 from .outlines import outline_strokes
 from .raytree import raytree_strokes
@@ -60,22 +60,22 @@ def _film_param_to_3d(u: np.ndarray, wa: np.ndarray, wb: np.ndarray) -> np.ndarr
     return u * wa / ((1.0 - u) * wb + u * wa)
 
 
-#: Feature edges whose samples are cast at once (bounds the memory of the samples).
+#: Feature edges clipped at once (bounds the memory of the clipping's temporaries).
+CLIP_BLOCK = 1 << 16
+#: Visibility samples cast in one launch, and the most edges they come from: whole edges
+#: are added to a launch until either is reached (bounds the memory of the samples and the
+#: edges, ~50 and ~130 bytes each, whatever the film's size; each launch traces the ray loop
+#: again, ~15 ms).
+SAMPLES = 1 << 20
 EDGE_CHUNK = 1 << 18
 
 
-def _split(
-    scene: mi.Scene,
-    table: ObjectTable,
-    proj: Projector,
-    edges: FeatureEdges,
-    max_qi: int,
-    fresh: int,
-) -> tuple[dict[str, np.ndarray], int]:
-    """The visibility-split pieces of ``edges`` (:class:`_Pieces`'s fields) and how many
-    pieces there were before those behind more than ``max_qi`` surfaces were dropped; the
-    nodes that are not welded vertices are numbered from ``fresh`` on (and ``-1 - n`` for a
-    node ``n`` on the image frame)."""
+def _clip(proj: Projector, edges: FeatureEdges) -> dict[str, np.ndarray]:
+    """The parts of ``edges`` inside the view frustum, one row per edge that has one: the
+    clipped ends ``A``, ``B`` (world) and their depths ``wa``, ``wb``, the film length and
+    the number of visibility samples ``count``, whether each end is the edge's own
+    (``whole_a``, ``whole_b``: not cut by the frustum), and the edge's own fields (``va``,
+    ``vb``, ``kind``, ``object_id``, ``prim``, ``faces``)."""
     ha, hb = proj.clip(edges.a), proj.clip(edges.b)
     lo, hi = proj.clip_homogeneous(ha, hb)
     e = np.flatnonzero(hi - lo > 1e-12)
@@ -86,33 +86,98 @@ def _split(
     # the clipped ends' film positions from the ends' homogeneous coordinates (linear)
     xa, wa = proj.film_of(ha + lo_e * (hb - ha))
     xb, wb = proj.film_of(ha + hi_e * (hb - ha))
-    del ha, hb
     length = np.hypot(*(xb - xa).T)
     count = np.maximum(2, np.ceil(length / SPACING).astype(np.int64) + 1)
-    owner = np.repeat(np.arange(len(e)), count)
+    out = dict(A=A, B=B, wa=wa, wb=wb, length=length, count=count)
+    out.update(whole_a=lo[e] == 0, whole_b=hi[e] == 1)
+    for k in ("va", "vb", "kind", "object_id", "prim"):
+        out[k] = getattr(edges, k)[e]
+    out["faces"] = edges.faces[e].astype(np.uint32)  # ids and primitives: 32 bits each
+    return out
+
+
+def _launches(proj: Projector, edges: FeatureEdges | ViewEdges) -> Iterator[dict[str, np.ndarray]]:
+    """The clipped edges (:func:`_clip`'s rows) in order, in runs of whole edges of at least
+    :data:`SAMPLES` samples or :data:`EDGE_CHUNK` edges (the last run: what is left; one
+    empty run when there is nothing), clipped :data:`CLIP_BLOCK` edges at a time."""
+    pending: list[dict[str, np.ndarray]] = []
+    n_edges = n_samples = 0
+    for c in range(0, len(edges), CLIP_BLOCK):
+        part = _clip(proj, edges.take(slice(c, c + CLIP_BLOCK)))
+        pending.append(part)
+        n_edges += len(part["A"])
+        n_samples += int(part["count"].sum())
+        if n_samples >= SAMPLES or n_edges >= EDGE_CHUNK:
+            yield _joined(pending)
+            n_edges = n_samples = 0
+    if pending or not len(edges):
+        yield _joined(pending) if pending else _clip(proj, edges.take(slice(0, 0)))
+
+
+def _joined(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The rows of ``parts`` one after the other, a field at a time (each part's copy dropped
+    as it is joined); ``parts`` is left empty."""
+    out = {key: np.concatenate([p.pop(key) for p in parts]) for key in list(parts[0])}
+    parts.clear()
+    return out
+
+
+def _sample_u(j: np.ndarray, owner: np.ndarray, first: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """The film parameter ``k / (count - 1)`` of samples ``j``, each the ``k``-th of the
+    ``count`` samples of its edge ``owner[j]``, whose first sample is ``first[owner[j]]``
+    (exact: integers in float64)."""
+    o = owner[j]
+    return (j.astype(np.float64) - first[o]) / (count[o] - 1)
+
+
+def _split(
+    scene: mi.Scene,
+    table: ObjectTable,
+    proj: Projector,
+    clipped: dict[str, np.ndarray],
+    max_qi: int,
+    fresh: int,
+) -> tuple[dict[str, np.ndarray], int]:
+    """The visibility-split pieces of the ``clipped`` edges (:func:`_clip`'s rows;
+    :class:`_Pieces`'s fields) and how many pieces there were before those behind more than
+    ``max_qi`` surfaces were dropped; the nodes that are not welded vertices are numbered from
+    ``fresh`` on (and ``-1 - n`` for a node ``n`` on the image frame), in the order of the
+    pieces: the numbers do not depend on how the edges are batched."""
+    A, B, wa, wb = clipped["A"], clipped["B"], clipped["wa"], clipped["wb"]
+    length, count = clipped["length"], clipped["count"]
+    n_e = len(A)
+    owner = np.repeat(np.arange(n_e, dtype=np.uint32), count)
     first = np.concatenate([[0], np.cumsum(count)[:-1]])
-    k = np.arange(len(owner)) - first[owner]
-    u = k / (count[owner] - 1)
+
+    # the samples' parameters in single precision (what the rays take), a block at a time:
+    # no double-precision copy of them all
+    u = np.empty(len(owner), np.float32)
+    for b in range(0, len(u), 1 << 18):
+        u[b : b + (1 << 18)] = _sample_u(
+            np.arange(b, min(b + (1 << 18), len(u))), owner, first, count
+        )
 
     # counted to max_qi + 1: the pieces beyond max_qi are told apart, then dropped
-    rays = SegmentVisibility(scene, table, proj.origin, A, B, wa, wb, edges.faces[e], max_qi + 1)
-
-    def state_at(idx: np.ndarray, uu: np.ndarray) -> np.ndarray:
-        qi, glass = rays.at(idx, uu)
-        return qi.astype(np.int64) * 2 + glass
-
-    state = state_at(owner, u)
+    rays = SegmentVisibility(scene, table, proj.origin, A, B, wa, wb, clipped["faces"], max_qi + 1)
+    qi, glass = rays.at(owner, u)
+    del u
+    state = qi * 2 + glass  # int32
+    del qi, glass
     change = np.flatnonzero((owner[1:] == owner[:-1]) & (state[1:] != state[:-1]))
-    ulo, uhi = u[change], u[change + 1]
+    ulo = _sample_u(change, owner, first, count)
+    uhi = _sample_u(change + 1, owner, first, count)
     slo = state[change]
     idx = owner[change]
+    del owner
     ulo, uhi = rays.bisect(idx, ulo, uhi, slo, ITERATIONS)
+    del rays
     split_u = 0.5 * (ulo + uhi)
     # pieces: per edge, boundaries 0, changes..., 1 (the changes of one edge come in order
     # along it), each with the state of the samples after its start
-    pe = np.concatenate([np.arange(len(e)), idx])
-    u0 = np.concatenate([np.zeros(len(e)), split_u])
-    st = np.concatenate([state[first], state[change + 1]]) if len(e) else np.zeros(0, int)
+    pe = np.concatenate([np.arange(n_e), idx])
+    u0 = np.concatenate([np.zeros(n_e), split_u])
+    st = np.concatenate([state[first], state[change + 1]]) if n_e else np.zeros(0, int)
+    del state
     order = np.lexsort((u0, pe))
     pe, u0, st = pe[order], u0[order], st[order]
     u1 = np.append(u0[1:], 1.0)
@@ -138,10 +203,10 @@ def _split(
     # change share a node (their states differ: a point where two strokes meet, unchained)
     node0 = fresh + np.arange(len(pe))
     node1 = np.append(node0[1:], 0)
-    clipped = -1 - node0  # an end on the image frame: its own node
-    node0 = np.where(first_of & (lo[e][pe] == 0), edges.va[e][pe], node0)
-    node1 = np.where(last, np.where(hi[e][pe] == 1, edges.vb[e][pe], clipped), node1)
-    count = len(pe)
+    clipped_end = -1 - node0  # an end on the image frame: its own node
+    node0 = np.where(first_of & clipped["whole_a"][pe], clipped["va"][pe], node0)
+    node1 = np.where(last, np.where(clipped["whole_b"][pe], clipped["vb"][pe], clipped_end), node1)
+    n_pieces = len(pe)
     shown = st // 2 <= max_qi
     pe, u0, u1, st, node0, node1 = (x[shown] for x in (pe, u0, u1, st, node0, node1))
     s0 = _film_param_to_3d(u0, wa[pe], wb[pe])
@@ -150,33 +215,38 @@ def _split(
     p1 = A[pe] + s1[:, None] * (B[pe] - A[pe])
     xy0, d0 = proj.film(p0)
     xy1, d1 = proj.film(p1)
+    st = st.astype(np.int64)
     out = dict(state=st, p0=p0, p1=p1, xy0=xy0, d0=d0, xy1=xy1, d1=d1, node0=node0, node1=node1)
-    out.update(kind=edges.kind[e][pe], object_id=edges.object_id[e][pe], prim=edges.prim[e][pe])
-    return out, count
+    out.update(
+        kind=clipped["kind"][pe], object_id=clipped["object_id"][pe], prim=clipped["prim"][pe]
+    )
+    return out, n_pieces
 
 
 class _Pieces:
-    """Visibility-split pieces of the clipped feature edges (arrays of length P), the edges
-    taken :data:`EDGE_CHUNK` at a time."""
+    """Visibility-split pieces of the clipped feature edges (arrays of length P), cast a
+    launch at a time (:func:`_launches`)."""
 
     def __init__(
         self,
         scene: mi.Scene,
         table: ObjectTable,
         proj: Projector,
-        edges: FeatureEdges,
+        edges: FeatureEdges | ViewEdges,
         max_qi: int,
     ) -> None:
-        fresh = int(max(edges.va.max(initial=-1), edges.vb.max(initial=-1))) + 1
+        fresh = edges.max_node() + 1
         parts = []
-        for c in range(0, max(len(edges), 1), EDGE_CHUNK):
-            part, count = _split(
-                scene, table, proj, edges.take(slice(c, c + EDGE_CHUNK)), max_qi, fresh
-            )
+        for clipped in _launches(proj, edges):
+            part, count = _split(scene, table, proj, clipped, max_qi, fresh)
             parts.append(part)
             fresh += count
-        for key in parts[0]:
-            setattr(self, key, np.concatenate([p[key] for p in parts]))
+            del clipped
+            # Dr.Jit keeps the launch's freed arrays for reuse, but the next launch's sizes
+            # differ: kept, they would add up over the launches
+            dr.flush_malloc_cache()
+        for key, value in _joined(parts).items():
+            setattr(self, key, value)
 
     def __len__(self) -> int:
         return len(self.state)
@@ -466,8 +536,9 @@ def extract_strokes(
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
     camera = proj.camera
-    edges = feature_edges(table, proj.origin, crease_angle)
-    strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)
+    pieces = _Pieces(scene, table, proj, view_edges(table, proj.origin, crease_angle), max_qi)
+    strokes = _mesh_strokes(pieces, chain_angle)
+    del pieces
     strokes += outline_strokes(scene, sensor, table, camera)
     if raytree_depth:
         strokes += raytree_strokes(scene, sensor, table, camera, raytree_depth)
