@@ -40,6 +40,7 @@ segment's parameter, so the clipped ends lie exactly on the frame.
 
 from __future__ import annotations
 
+import ctypes
 import math
 from dataclasses import dataclass, field
 
@@ -158,10 +159,23 @@ def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
     return labels.astype(np.int64)
 
 
+def release_freed_memory() -> None:
+    """Hand the pages of freed arrays back to the system, where the C library allows it
+    (glibc's ``malloc_trim``; elsewhere nothing). glibc keeps freed blocks between live ones
+    resident, so without it a phase's temporaries of a few MB each (the topology's build makes
+    hundreds) would stay in the process's memory after the phase."""
+    try:
+        ctypes.CDLL(None).malloc_trim(0)
+    except (AttributeError, OSError):  # not glibc
+        pass
+
+
 #: Half-edges grouped into edges at once while the topology is built (bounds its memory).
-HALF_EDGES = 1 << 19
-#: Faces whose normals are computed at once (bounds the memory of the temporaries).
+HALF_EDGES = 1 << 18
+#: Faces whose normals are computed at once, and edges classified at once for a view (bound
+#: the memory of the temporaries).
 FACES = 1 << 18
+EDGE_BLOCK = 1 << 20
 
 
 def _corner_ends(
@@ -208,7 +222,16 @@ def _group_edges(
         # a face collapsed by welding has no edge there: in no range
         rank[k::3] = of_end[np.where(u != w, np.minimum(u, w), n_welded)]
     del u, w, of_end
-    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("keys", "counts", "f0", "f1", "flip")}
+    release_freed_memory()
+    # the edges written in place, as many rows as half-edges reserved (pages never written
+    # take no memory) and the rest handed back at the end: no parts joined, and the ranges'
+    # temporaries, all of one size, reuse each other's memory
+    cap = int(np.count_nonzero(rank < n_ranges))
+    keys = np.empty((cap, 2), np.int32)
+    counts = np.empty(cap, np.uint8)
+    f0, f1 = np.empty(cap, np.int32), np.empty(cap, np.int32)
+    flip = np.empty(cap, bool)
+    at = 0
     for r in range(n_ranges):
         sel = np.flatnonzero(rank == r)  # the range's half-edges, in increasing order
         if not len(sel):
@@ -220,23 +243,20 @@ def _group_edges(
         key = lo[order].astype(np.int64) * n_welded + hi[order]
         head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
         del key
-        counts = np.diff(np.append(head, len(sel)))
+        n = np.diff(np.append(head, len(sel)))
         i0 = order[head]
-        i1 = np.where(counts >= 2, order[np.minimum(head + 1, len(sel) - 1)], i0)
+        i1 = np.where(n >= 2, order[np.minimum(head + 1, len(sel) - 1)], i0)
         del order, head
-        parts["keys"].append(np.stack([lo[i0], hi[i0]], 1))
-        parts["counts"].append(np.minimum(counts, 3).astype(np.uint8))
-        parts["f0"].append((sel[i0] // 3).astype(np.int32))
-        parts["f1"].append((sel[i1] // 3).astype(np.int32))
-        parts["flip"].append(forward[i0] == forward[i1])
+        rows = slice(at, at + len(i0))
+        keys[rows, 0], keys[rows, 1] = lo[i0], hi[i0]
+        counts[rows] = np.minimum(n, 3)
+        f0[rows], f1[rows] = sel[i0] // 3, sel[i1] // 3
+        flip[rows] = forward[i0] == forward[i1]
+        at += len(i0)
     del rank
-    empty = {"keys": np.zeros((0, 2), np.int32), "counts": np.zeros(0, np.uint8)}
-    out = []
-    for k, p in parts.items():
-        out.append(np.concatenate(p) if p else empty.get(k, np.zeros(0, np.int32)))
-        p.clear()
-    keys, counts, f0, f1, flip = out
-    return keys, counts, f0, f1, flip.astype(bool)
+    for x in (keys, counts, f0, f1, flip):
+        x.resize((at, *x.shape[1:]), refcheck=False)  # in place: the tail is never copied
+    return keys, counts, f0, f1, flip
 
 
 @dataclass(eq=False)
@@ -267,6 +287,8 @@ class Topology:
     flip: np.ndarray
     crossings: tuple[np.ndarray, ...]
     _kinds: dict = field(default_factory=dict)
+    #: Views classified so far (:func:`view_edges`).
+    views: int = 0
 
     @classmethod
     def of(cls, table: ObjectTable) -> Topology:
@@ -298,6 +320,7 @@ class Topology:
         first_face[face_oid[heads]] = heads
         size = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
         p, q, fa, fb = intersections(v, f, face_oid)
+        release_freed_memory()
         wid = weld(v, WELD * size).astype(np.int32)
         n_welded = int(wid.max()) + 1
         # the crossings' ends welded into nodes of their own, numbered after the vertices
@@ -307,6 +330,7 @@ class Topology:
         crossings = (p[keep], q[keep], fa[keep].astype(np.int32), fb[keep].astype(np.int32))
         crossings += (va[keep], vb[keep])
         del p, q, fa, fb, node, va, vb, keep
+        release_freed_memory()
         rep = np.zeros(n_welded, np.int64)
         rep[wid[::-1]] = np.arange(len(wid))[::-1]
         welded = v[rep]
@@ -324,6 +348,7 @@ class Topology:
             unit[c : c + len(fc)] = n / np.where(length > 0, length, np.inf)[:, None]
             offset[c : c + len(fc)] = np.einsum("ij,ij->i", unit[c : c + len(fc)], p0)
         del v, fc, p0, n, length  # the vertices: the edges need the welded faces alone
+        release_freed_memory()
         keys, counts, f0, f1, flip = _group_edges(wid, f, n_welded)
         return cls(
             face_oid,
@@ -403,6 +428,7 @@ def topology(table: ObjectTable) -> Topology:
         return entry[2]
     entry = _LAST[0] = None  # the old one's memory first
     topo = Topology.of(table)
+    release_freed_memory()
     _LAST[0] = (key_t, buffers, topo)
     return topo
 
@@ -412,7 +438,9 @@ class ViewEdges:
     (:meth:`take`): the mesh edges ``edge`` (indices into the :class:`Topology`'s edges) with
     their ``kind`` and drawn ``face``, then the intersection segments with their drawn face
     ``cross_face``. The full rows of a large model's edges would take ~100 bytes each at once;
-    these take ~10."""
+    these take ~10. ``first``: the first view of its topology (a one-off extraction, whose
+    memory peak counts, rather than one of many views of a scene, which reuse each other's
+    buffers)."""
 
     def __init__(
         self,
@@ -421,14 +449,10 @@ class ViewEdges:
         kind: np.ndarray,
         face: np.ndarray,
         cross_face: np.ndarray,
+        first: bool = False,
     ) -> None:
-        self.topo, self.edge, self.kind, self.face, self.cross_face = (
-            topo,
-            edge,
-            kind,
-            face,
-            cross_face,
-        )
+        self.topo, self.edge, self.kind, self.face = topo, edge, kind, face
+        self.cross_face, self.first = cross_face, first
 
     def __len__(self) -> int:
         return len(self.edge) + len(self.cross_face)
@@ -506,27 +530,39 @@ def view_edges(
     zi = np.zeros(0, np.int64)
     if len(topo.face_oid) == 0:
         return ViewEdges(topo, zi, zi.astype(np.int8), zi, zi)
+    first = topo.views == 0
+    topo.views += 1
     d = topo.facing(origin)
-    # front-facing tests as byte gathers over every edge; the values only for the drawn ones
+    # front-facing tests as byte gathers over every edge (a block of edges at a time: bounded
+    # temporaries); the values only for the drawn ones
     neg, pos = d < 0, d > 0
-    two = topo.counts == 2
-    front0 = neg[topo.f0]
-    front1 = np.where(topo.flip, pos[topo.f1], neg[topo.f1])  # the turned normal's sign
-    kind = topo.static_kinds(crease_angle).copy()
-    kind[two & (front0 != front1)] = _SIL
-    del neg, pos, front0, front1
-    e = np.flatnonzero(kind >= 0)
-    kind = kind[e]
-    f0, f1, two = topo.f0[e], topo.f1[e], two[e]
-    # the face drawn: the one facing the camera more
-    d0, d1 = d[f0], np.where(topo.flip[e], -d[f1], d[f1])
-    face = np.where(two & (d1 < d0), f1, f0)
+    static = topo.static_kinds(crease_angle)
+    parts: dict[str, list[np.ndarray]] = {"e": [], "kind": [], "face": []}
+    for c in range(0, len(static), EDGE_BLOCK):
+        f0, f1 = topo.f0[c : c + EDGE_BLOCK], topo.f1[c : c + EDGE_BLOCK]
+        flip, two = topo.flip[c : c + EDGE_BLOCK], topo.counts[c : c + EDGE_BLOCK] == 2
+        front0 = neg[f0]
+        front1 = np.where(flip, pos[f1], neg[f1])  # the turned normal's sign
+        kind = static[c : c + EDGE_BLOCK].copy()
+        kind[two & (front0 != front1)] = _SIL
+        e = np.flatnonzero(kind >= 0)
+        f0, f1, two = f0[e], f1[e], two[e]
+        # the face drawn: the one facing the camera more
+        d0, d1 = d[f0], np.where(flip[e], -d[f1], d[f1])
+        parts["face"].append(np.where(two & (d1 < d0), f1, f0))
+        parts["e"].append(e + c)
+        parts["kind"].append(kind[e])
+    del neg, pos
+    e, kind, face = (np.concatenate(parts[k]) for k in ("e", "kind", "face"))
     cross_face = zi
     if intersect:
         # each end lies on both planes: the plane's facing value there is the face's
         _, _, fa, fb, _, _ = topo.crossings
         cross_face = np.where(d[fb] < d[fa], fb, fa)
-    return ViewEdges(topo, e, kind, face, cross_face)
+    del d, parts
+    if first:
+        release_freed_memory()  # the temporaries over every face and edge
+    return ViewEdges(topo, e, kind, face, cross_face, first)
 
 
 def feature_edges(

@@ -39,7 +39,7 @@ from ..raycast import cast, film_grid, pixel_rays
 from ..raytree.tracer import MAX_DEPTH
 from ..scene import ObjectTable, object_table
 from .chain import chain_order
-from .edges import FeatureEdges, Projector, ViewEdges, view_edges
+from .edges import FeatureEdges, Projector, ViewEdges, release_freed_memory, view_edges
 from .model import KINDS, Stroke, Strokes
 from .outlines import outline_strokes
 from .raytree import raytree_strokes
@@ -64,10 +64,10 @@ def _film_param_to_3d(u: np.ndarray, wa: np.ndarray, wb: np.ndarray) -> np.ndarr
 CLIP_BLOCK = 1 << 16
 #: Visibility samples cast in one launch, and the most edges they come from: whole edges
 #: are added to a launch until either is reached (bounds the memory of the samples and the
-#: edges, ~50 and ~130 bytes each, whatever the film's size; each launch traces the ray loop
-#: again, ~15 ms).
-SAMPLES = 1 << 20
-EDGE_CHUNK = 1 << 18
+#: edges, ~40 and ~120 bytes each, whatever the film's size; each launch traces the ray loop
+#: again, ~15 ms, and the bisections of all the launches wait for one launch after them).
+SAMPLES = 1 << 19
+EDGE_CHUNK = 1 << 17
 
 
 def _clip(proj: Projector, edges: FeatureEdges) -> dict[str, np.ndarray]:
@@ -130,25 +130,21 @@ def _sample_u(j: np.ndarray, owner: np.ndarray, first: np.ndarray, count: np.nda
     return (j.astype(np.float64) - first[o]) / (count[o] - 1)
 
 
-def _split(
+def _states(
     scene: mi.Scene,
     table: ObjectTable,
     proj: Projector,
     clipped: dict[str, np.ndarray],
     max_qi: int,
-    fresh: int,
-) -> tuple[dict[str, np.ndarray], int]:
-    """The visibility-split pieces of the ``clipped`` edges (:func:`_clip`'s rows;
-    :class:`_Pieces`'s fields) and how many pieces there were before those behind more than
-    ``max_qi`` surfaces were dropped; the nodes that are not welded vertices are numbered from
-    ``fresh`` on (and ``-1 - n`` for a node ``n`` on the image frame), in the order of the
-    pieces: the numbers do not depend on how the edges are batched."""
-    A, B, wa, wb = clipped["A"], clipped["B"], clipped["wa"], clipped["wb"]
-    length, count = clipped["length"], clipped["count"]
-    n_e = len(A)
-    owner = np.repeat(np.arange(n_e, dtype=np.uint32), count)
-    first = np.concatenate([[0], np.cumsum(count)[:-1]])
-
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The samples of the ``clipped`` edges (:func:`_clip`'s rows) cast in one launch: the
+    state ``2 QI + through_glass`` of each edge's first sample, and where two neighbouring
+    samples of an edge differ, the ``changes``: the edge, the two samples' film parameters
+    ``ulo``, ``uhi`` and states ``slo``, ``shi`` (in order along each edge). The rays count to
+    ``max_qi + 1``: the parts beyond ``max_qi`` are told apart, then dropped."""
+    count = clipped["count"]
+    owner = np.repeat(np.arange(len(count), dtype=np.uint32), count)
+    first = np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)
     # the samples' parameters in single precision (what the rays take), a block at a time:
     # no double-precision copy of them all
     u = np.empty(len(owner), np.float32)
@@ -156,28 +152,48 @@ def _split(
         u[b : b + (1 << 18)] = _sample_u(
             np.arange(b, min(b + (1 << 18), len(u))), owner, first, count
         )
-
-    # counted to max_qi + 1: the pieces beyond max_qi are told apart, then dropped
-    rays = SegmentVisibility(scene, table, proj.origin, A, B, wa, wb, clipped["faces"], max_qi + 1)
+    rays = _rays(scene, table, proj, clipped, max_qi)
     qi, glass = rays.at(owner, u)
-    del u
+    del u, rays
     state = qi * 2 + glass  # int32
     del qi, glass
     change = np.flatnonzero((owner[1:] == owner[:-1]) & (state[1:] != state[:-1]))
-    ulo = _sample_u(change, owner, first, count)
-    uhi = _sample_u(change + 1, owner, first, count)
-    slo = state[change]
-    idx = owner[change]
-    del owner
-    ulo, uhi = rays.bisect(idx, ulo, uhi, slo, ITERATIONS)
-    del rays
-    split_u = 0.5 * (ulo + uhi)
-    # pieces: per edge, boundaries 0, changes..., 1 (the changes of one edge come in order
-    # along it), each with the state of the samples after its start
-    pe = np.concatenate([np.arange(n_e), idx])
+    changes = dict(
+        edge=owner[change].astype(np.int64),
+        ulo=_sample_u(change, owner, first, count),
+        uhi=_sample_u(change + 1, owner, first, count),
+        slo=state[change],
+        shi=state[change + 1],
+    )
+    return state[first] if len(count) else np.zeros(0, np.int32), changes
+
+
+def _rays(
+    scene: mi.Scene,
+    table: ObjectTable,
+    proj: Projector,
+    clipped: dict[str, np.ndarray],
+    max_qi: int,
+) -> SegmentVisibility:
+    """The visibility rays to the ``clipped`` edges, counting to ``max_qi + 1``."""
+    A, B, wa, wb = clipped["A"], clipped["B"], clipped["wa"], clipped["wb"]
+    return SegmentVisibility(scene, table, proj.origin, A, B, wa, wb, clipped["faces"], max_qi + 1)
+
+
+def _split(
+    length: np.ndarray, state0: np.ndarray, changes: dict[str, np.ndarray], split_u: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """The visibility pieces of edges of film length ``length`` whose first sample has state
+    ``state0`` and whose state changes at ``split_u`` (``changes``' edge and state after):
+    ``(edge, u0, u1, state, first, last)`` per piece, in order along each edge, the edges in
+    order (``first``, ``last``: the edge's first and last piece). Each edge's pieces depend on
+    that edge alone."""
+    n_e = len(length)
+    # pieces: per edge, boundaries 0, changes..., 1, each with the state of the samples after
+    # its start
+    pe = np.concatenate([np.arange(n_e), changes["edge"]])
     u0 = np.concatenate([np.zeros(n_e), split_u])
-    st = np.concatenate([state[first], state[change + 1]]) if n_e else np.zeros(0, int)
-    del state
+    st = np.concatenate([state0, changes["shi"]])
     order = np.lexsort((u0, pe))
     pe, u0, st = pe[order], u0[order], st[order]
     u1 = np.append(u0[1:], 1.0)
@@ -199,33 +215,50 @@ def _split(
     last = np.append(pe[1:] != pe[:-1], True)
     u1[last] = 1.0
     first_of = np.append(True, pe[1:] != pe[:-1])
-    # nodes: welded vertices at unclipped ends, fresh ids elsewhere; the two pieces of a
-    # change share a node (their states differ: a point where two strokes meet, unchained)
-    node0 = fresh + np.arange(len(pe))
-    node1 = np.append(node0[1:], 0)
-    clipped_end = -1 - node0  # an end on the image frame: its own node
-    node0 = np.where(first_of & clipped["whole_a"][pe], clipped["va"][pe], node0)
-    node1 = np.where(last, np.where(clipped["whole_b"][pe], clipped["vb"][pe], clipped_end), node1)
-    n_pieces = len(pe)
-    shown = st // 2 <= max_qi
-    pe, u0, u1, st, node0, node1 = (x[shown] for x in (pe, u0, u1, st, node0, node1))
+    return pe, u0, u1, st, first_of, last
+
+
+def _shown(
+    proj: Projector,
+    clipped: dict[str, np.ndarray],
+    pieces: tuple[np.ndarray, ...],
+    max_qi: int,
+    edge_id: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """The pieces (:func:`_split`'s) of the ``clipped`` edges that are not behind more than
+    ``max_qi`` surfaces, with their 3-D and film ends and their edge's fields; ``edge``: the
+    edge's number among all the clipped edges (``edge_id`` of each of these), ``rank``: the
+    piece's among its edge's."""
+    pe, u0, u1, st, first_of, last = pieces
+    rank = np.arange(len(pe)) - np.searchsorted(pe, pe)
+    keep = st // 2 <= max_qi
+    pe, u0, u1, st, first_of, last, rank = (x[keep] for x in (pe, u0, u1, st, first_of, last, rank))
+    A, B, wa, wb = clipped["A"], clipped["B"], clipped["wa"], clipped["wb"]
     s0 = _film_param_to_3d(u0, wa[pe], wb[pe])
     s1 = _film_param_to_3d(u1, wa[pe], wb[pe])
     p0 = A[pe] + s0[:, None] * (B[pe] - A[pe])
     p1 = A[pe] + s1[:, None] * (B[pe] - A[pe])
     xy0, d0 = proj.film(p0)
     xy1, d1 = proj.film(p1)
-    st = st.astype(np.int64)
-    out = dict(state=st, p0=p0, p1=p1, xy0=xy0, d0=d0, xy1=xy1, d1=d1, node0=node0, node1=node1)
-    out.update(
-        kind=clipped["kind"][pe], object_id=clipped["object_id"][pe], prim=clipped["prim"][pe]
-    )
-    return out, n_pieces
+    out = dict(state=st.astype(np.int64), p0=p0, p1=p1, xy0=xy0, d0=d0, xy1=xy1, d1=d1)
+    for k in ("kind", "object_id", "prim", "va", "vb"):
+        out[k] = clipped[k][pe]
+    out["kind"] = out["kind"].astype(np.int64)
+    out.update(edge=edge_id[pe], rank=rank, node_a=first_of & clipped["whole_a"][pe])
+    out["node_b"] = last & clipped["whole_b"][pe]
+    out["last"] = last
+    return out
 
 
 class _Pieces:
-    """Visibility-split pieces of the clipped feature edges (arrays of length P), cast a
-    launch at a time (:func:`_launches`)."""
+    """Visibility-split pieces of the clipped feature edges (arrays of length P).
+
+    The samples are cast a launch at a time (:func:`_launches`); an edge whose samples all
+    agree is one piece at once, the others wait with their changes for one bisection launch
+    over all of them (each launch traces the ray loop again). The nodes that are not welded
+    vertices are numbered from ``edges.max_node() + 1`` on in the order of all the pieces
+    (those dropped too), edge by edge, a piece's ``-1 - n`` for its end on the image
+    frame."""
 
     def __init__(
         self,
@@ -235,18 +268,58 @@ class _Pieces:
         edges: FeatureEdges | ViewEdges,
         max_qi: int,
     ) -> None:
-        fresh = edges.max_node() + 1
-        parts = []
+        shown, counts, waiting, state0, changes = [], [], [], [], []
+        n_edges = n_waiting = 0
         for clipped in _launches(proj, edges):
-            part, count = _split(scene, table, proj, clipped, max_qi, fresh)
-            parts.append(part)
-            fresh += count
-            del clipped
-            # Dr.Jit keeps the launch's freed arrays for reuse, but the next launch's sizes
-            # differ: kept, they would add up over the launches
-            dr.flush_malloc_cache()
-        for key, value in _joined(parts).items():
+            s0, ch = _states(scene, table, proj, clipped, max_qi)
+            changed = np.zeros(len(s0), bool)
+            changed[ch["edge"]] = True
+            # an edge whose samples agree: one piece, [0, 1] (kept where it is in sight)
+            plain = np.flatnonzero(~changed & (s0 // 2 <= max_qi))
+            one, n = np.ones(len(plain), bool), len(plain)
+            pieces = (np.arange(n), np.zeros(n), np.ones(n), s0[plain], one, one)
+            rows = {k: v[plain] for k, v in clipped.items()}
+            shown.append(_shown(proj, rows, pieces, max_qi, n_edges + plain))
+            counts.append(np.where(changed, 0, 1))  # the others' counts: once split
+            # the others wait, with their changes, for the bisections
+            wait = np.flatnonzero(changed)
+            rows = {k: v[wait] for k, v in clipped.items()}
+            rows["edge_id"] = n_edges + wait
+            waiting.append(rows)
+            state0.append(s0[wait])
+            ch["edge"] = n_waiting + np.searchsorted(wait, ch["edge"])
+            changes.append(ch)
+            n_edges += len(s0)
+            n_waiting += len(wait)
+            del clipped, rows
+        counts = np.concatenate(counts)
+        if n_waiting:
+            rows, ch = _joined(waiting), _joined(changes)
+            edge_id = rows.pop("edge_id")
+            ulo, uhi = _rays(scene, table, proj, rows, max_qi).bisect(
+                ch["edge"], ch["ulo"], ch["uhi"], ch["slo"], ITERATIONS
+            )
+            pieces = _split(rows["length"], np.concatenate(state0), ch, 0.5 * (ulo + uhi))
+            shown.append(_shown(proj, rows, pieces, max_qi, edge_id))
+            counts[edge_id] = np.bincount(pieces[0], minlength=len(edge_id))
+        out = _joined(shown)
+        order = np.lexsort((out["rank"], out["edge"]))
+        out = {k: v[order] for k, v in out.items()}
+        # nodes: welded vertices at the edges' own ends, else a number per piece, after all
+        # the pieces of the edges before its own; the two pieces of a change share a node
+        # (their states differ: a point where two strokes meet, unchained), an end on the
+        # image frame is a node of its own
+        before = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        n = edges.max_node() + 1 + before[out.pop("edge")] + out.pop("rank")
+        va, vb, last = out.pop("va"), out.pop("vb"), out.pop("last")
+        self.node0 = np.where(out.pop("node_a"), va, n)
+        self.node1 = np.where(last, np.where(out.pop("node_b"), vb, -1 - n), n + 1)
+        for key, value in out.items():
             setattr(self, key, value)
+        if getattr(edges, "first", False):
+            # what Dr.Jit keeps of the launches for reuse: the next view's would fit in it, a
+            # one-off extraction's memory is better handed back
+            dr.flush_malloc_cache()
 
     def __len__(self) -> int:
         return len(self.state)
@@ -536,9 +609,10 @@ def extract_strokes(
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
     camera = proj.camera
-    pieces = _Pieces(scene, table, proj, view_edges(table, proj.origin, crease_angle), max_qi)
-    strokes = _mesh_strokes(pieces, chain_angle)
-    del pieces
+    edges = view_edges(table, proj.origin, crease_angle)
+    first = edges.first
+    strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)
+    del edges
     strokes += outline_strokes(scene, sensor, table, camera)
     if raytree_depth:
         strokes += raytree_strokes(scene, sensor, table, camera, raytree_depth)
@@ -550,6 +624,8 @@ def extract_strokes(
         depth_range = cast_depth_range(scene, sensor, table)
     order = {k: i for i, k in enumerate(KINDS)}
     strokes.sort(key=lambda s: (order[s.kind], s.qi, s.through_glass))
+    if first:  # a one-off extraction: its temporaries handed back (see ViewEdges.first)
+        release_freed_memory()
     return Strokes(
         strokes,
         proj.width,
