@@ -175,7 +175,7 @@ HALF_EDGES = 1 << 18
 #: Faces whose normals are computed at once, and edges classified at once for a view (bound
 #: the memory of the temporaries).
 FACES = 1 << 18
-EDGE_BLOCK = 1 << 20
+EDGE_BLOCK = 1 << 18
 
 
 def _corner_ends(
@@ -380,18 +380,18 @@ class Topology:
             crease_cos = math.cos(math.radians(180.0 - crease_angle))
             degenerate = ~np.any(self.unit != 0, axis=1)
             kind = np.full(len(self.counts), -1, np.int8)
-            for c in range(0, len(kind), 1 << 20):  # a block of edges at a time (memory)
-                f0, f1 = self.f0[c : c + (1 << 20)], self.f1[c : c + (1 << 20)]
-                counts = self.counts[c : c + (1 << 20)]
+            for c in range(0, len(kind), EDGE_BLOCK):  # a block of edges at a time (memory)
+                f0, f1 = self.f0[c : c + EDGE_BLOCK], self.f1[c : c + EDGE_BLOCK]
+                counts = self.counts[c : c + EDGE_BLOCK]
                 cos_n = np.zeros(len(f0))
                 for k in range(3):
                     col = self.unit[:, k]
                     cos_n += col[f0] * col[f1]
-                cos_n = np.where(self.flip[c : c + (1 << 20)], -cos_n, cos_n)
+                cos_n = np.where(self.flip[c : c + EDGE_BLOCK], -cos_n, cos_n)
                 cos_n[degenerate[f0] | degenerate[f1]] = 1.0
                 two = counts == 2
                 crease = (crease_angle > 0) & (cos_n < crease_cos)
-                block = kind[c : c + (1 << 20)]
+                block = kind[c : c + EDGE_BLOCK]
                 block[counts >= 3] = _CREASE
                 block[two & crease] = _CREASE
                 block[two & (self.face_oid[f0] != self.face_oid[f1])] = _MATERIAL

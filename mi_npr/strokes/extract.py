@@ -270,6 +270,7 @@ class _Pieces:
     ) -> None:
         shown, counts, waiting, state0, changes = [], [], [], [], []
         n_edges = n_waiting = 0
+        first = getattr(edges, "first", False)
         for clipped in _launches(proj, edges):
             s0, ch = _states(scene, table, proj, clipped, max_qi)
             changed = np.zeros(len(s0), bool)
@@ -292,6 +293,9 @@ class _Pieces:
             n_edges += len(s0)
             n_waiting += len(wait)
             del clipped, rows
+            if first:  # the launch's memory handed back (see the end)
+                dr.flush_malloc_cache()
+                release_freed_memory()
         counts = np.concatenate(counts)
         if n_waiting:
             rows, ch = _joined(waiting), _joined(changes)
@@ -316,7 +320,7 @@ class _Pieces:
         self.node1 = np.where(last, np.where(out.pop("node_b"), vb, -1 - n), n + 1)
         for key, value in out.items():
             setattr(self, key, value)
-        if getattr(edges, "first", False):
+        if first:
             # what Dr.Jit keeps of the launches for reuse: the next view's would fit in it, a
             # one-off extraction's memory is better handed back
             dr.flush_malloc_cache()
