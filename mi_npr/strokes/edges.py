@@ -166,7 +166,7 @@ def release_freed_memory() -> None:
     hundreds) would stay in the process's memory after the phase."""
     try:
         ctypes.CDLL(None).malloc_trim(0)
-    except (AttributeError, OSError):  # not glibc
+    except (AttributeError, OSError, TypeError):  # not glibc
         pass
 
 
