@@ -30,6 +30,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import drjit as dr
 import mitsuba as mi
 import numpy as np
 
@@ -198,6 +199,10 @@ def render_layers(
         out.strokes = stroke_layers(out.gbuffer, lines="lines" not in on)
         if "lines" in on:
             with session.step("lines as strokes"):
+                # what Dr.Jit keeps for reuse from the render and the drawings (the beauty's
+                # samples, the film, the drawings' temporaries) is freed first: the strokes'
+                # mesh topology and visibility rays take its place, not memory beside it
+                dr.flush_malloc_cache()
                 out.strokes[LINES_SVG] = lines_as_strokes(
                     session, out.gbuffer, on["lines"], out.vector_strokes
                 )

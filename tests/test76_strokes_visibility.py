@@ -367,14 +367,17 @@ def test10_sub_pixel_zig_zag_is_one_stroke_a_corner_ends_it():
 
 
 def test11_edges_and_rays_taken_in_small_batches_give_the_same_strokes(tmp_path, monkeypatch):
-    """The extraction casts its edges :data:`EDGE_CHUNK` at a time and its rays
-    :data:`RAYS` a launch (memory bounds): batches of a few edges and rays change nothing."""
+    """The extraction clips its edges :data:`CLIP_BLOCK` at a time, casts their samples in
+    launches of :data:`SAMPLES` samples or :data:`EDGE_CHUNK` edges and its rays :data:`RAYS`
+    a launch (memory bounds): batches of a few edges, samples and rays change nothing."""
     from mi_npr.strokes import extract, visibility
 
     scene = load(tmp_path, WALL + BOX + BALL)
     key = lambda s: (s.kind, s.qi, s.through_glass, np.round(s.points, 6).tobytes())  # noqa: E731
     whole = sorted(map(key, extract_strokes(scene, scene.sensors()[0], max_qi=2)))
+    monkeypatch.setattr(extract, "CLIP_BLOCK", 3)
     monkeypatch.setattr(extract, "EDGE_CHUNK", 5)
+    monkeypatch.setattr(extract, "SAMPLES", 40)
     monkeypatch.setattr(visibility, "RAYS", 7)
     small = sorted(map(key, extract_strokes(scene, scene.sensors()[0], max_qi=2)))
     assert len(whole) > 5 and small == whole

@@ -40,6 +40,7 @@ segment's parameter, so the clipped ends lie exactly on the frame.
 
 from __future__ import annotations
 
+import ctypes
 import math
 from dataclasses import dataclass, field
 
@@ -86,6 +87,10 @@ class FeatureEdges:
         """The edges ``rows`` (a slice or an index array)."""
         return FeatureEdges(*(getattr(self, k)[rows] for k in self.__dataclass_fields__))
 
+    def max_node(self) -> int:
+        """The largest node id of the edges' ends (-1 for none)."""
+        return int(max(self.va.max(initial=-1), self.vb.max(initial=-1)))
+
     @classmethod
     def empty(cls) -> FeatureEdges:
         z3 = np.zeros((0, 3))
@@ -102,34 +107,36 @@ class FeatureEdges:
         )
 
 
-def mesh_arrays(table: ObjectTable) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def mesh_arrays(table: ObjectTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every mesh of the object table as one triangle soup: vertex positions (V, 3) float64,
-    faces (F, 3) into them (int32; int64 past 2**31 vertices), and each face's object id and
-    primitive index (F,) int32, the faces of one object contiguous, objects in increasing
-    id."""
-    vs, fs, oids, prims = [], [], [], []
-    base = 0
+    faces (F, 3) into them (int32; int64 past 2**31 vertices), and each face's object id (F,)
+    int32, the faces of one object contiguous, objects in increasing id (a face's primitive
+    index is its position among its object's faces)."""
+    meshes = []
     for oid in sorted(table.shapes):
         shape = table.shapes[oid]
         if not shape.is_mesh():
             continue
         # the mesh's own buffers (world space, flat): no kernel per shape
-        v = np.asarray(shape.vertex_positions_buffer().numpy(), np.float64).reshape(-1, 3)
-        f = np.asarray(shape.faces_buffer().numpy(), np.int64).reshape(-1, 3)
-        if len(f) == 0:
-            continue
-        vs.append(v)
-        fs.append(f + base)
-        oids.append(np.full(len(f), oid, np.int32))
-        prims.append(np.arange(len(f), dtype=np.int32))
-        base += len(v)
-    if not fs:
-        z = np.zeros(0, np.int32)
-        return np.zeros((0, 3)), np.zeros((0, 3), np.int32), z, z
-    faces = np.concatenate(fs)
-    if base < 2**31:  # half the memory of the largest array
-        faces = faces.astype(np.int32)
-    return np.concatenate(vs), faces, np.concatenate(oids), np.concatenate(prims)
+        vp, fb = shape.vertex_positions_buffer(), shape.faces_buffer()
+        if dr.width(fb) >= 3:
+            meshes.append((oid, vp, fb))
+    n_v = sum(dr.width(vp) // 3 for _, vp, _ in meshes)
+    n_f = sum(dr.width(fb) // 3 for _, _, fb in meshes)
+    # filled in place, one mesh at a time: no second copy of the soup while it is joined
+    v = np.empty((n_v, 3))
+    faces = np.empty((n_f, 3), np.int32 if n_v < 2**31 else np.int64)
+    oids = np.empty(n_f, np.int32)
+    base = at = 0
+    for oid, vp, fb in meshes:
+        mv = np.asarray(vp.numpy()).reshape(-1, 3)
+        mf = np.asarray(fb.numpy()).reshape(-1, 3)
+        v[base : base + len(mv)] = mv
+        faces[at : at + len(mf)] = mf
+        faces[at : at + len(mf)] += base
+        oids[at : at + len(mf)] = oid
+        base, at = base + len(mv), at + len(mf)
+    return v, faces, oids
 
 
 def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
@@ -147,26 +154,128 @@ def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
     if len(pairs) == 0:
         return np.arange(n, dtype=np.int64)
     g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    del pairs
     _, labels = connected_components(g, directed=False)
     return labels.astype(np.int64)
 
 
+def release_freed_memory() -> None:
+    """Hand the pages of freed arrays back to the system, where the C library allows it
+    (glibc's ``malloc_trim``; elsewhere nothing). glibc keeps freed blocks between live ones
+    resident, so without it a phase's temporaries of a few MB each (the topology's build makes
+    hundreds) would stay in the process's memory after the phase."""
+    try:
+        ctypes.CDLL(None).malloc_trim(0)
+    except (AttributeError, OSError, TypeError):  # not glibc
+        pass
+
+
+#: Half-edges grouped into edges at once while the topology is built (bounds its memory).
+HALF_EDGES = 1 << 18
+#: Faces whose normals are computed at once, and edges classified at once for a view (bound
+#: the memory of the temporaries).
+FACES = 1 << 18
+EDGE_BLOCK = 1 << 18
+
+
+def _corner_ends(
+    wid: np.ndarray, f: np.ndarray, h: np.ndarray | int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The welded ends (from, to) of half-edges ``h`` (an index array), or of every half-edge
+    from corner ``h`` (an int) of the faces ``f``: half-edge ``h`` runs from corner ``h % 3``
+    of face ``h // 3`` to the next corner."""
+    if isinstance(h, int):
+        return wid[f[:, h]], wid[f[:, (h + 1) % 3]]
+    face, corner = h // 3, h % 3
+    return wid[f[face, corner]], wid[f[face, (corner + 1) % 3]]
+
+
+def _group_edges(
+    wid: np.ndarray, f: np.ndarray, n_welded: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The welded edges of the faces ``f`` (F, 3) whose vertices are welded into ``wid``
+    (V,): ``keys`` (E, 2) int32, the face counts (E,) uint8 (3: three or more), the first two
+    faces ``f0``, ``f1`` (E,) int32 (``f1 = f0`` with one face) and ``flip`` (E,) bool, in
+    increasing ``keys``; an edge's faces are its half-edges' (:func:`_corner_ends`) in the
+    order of their indices. The half-edges are sorted about :data:`HALF_EDGES` at a time, in
+    ranges of their lower end (the same order as one stable sort of them all); of each
+    half-edge only its range is kept meanwhile (one byte or two), its ends found again from
+    the faces."""
+    # the ranges: runs of lower ends holding about HALF_EDGES half-edges each
+    per_end = np.zeros(n_welded, np.int64)
+    for k in range(3):  # a corner at a time: no (F, 3) temporaries
+        u, w = _corner_ends(wid, f, k)
+        per_end += np.bincount(np.minimum(u, w)[u != w], minlength=n_welded)
+    cum = np.cumsum(per_end)
+    del per_end
+    cuts = np.searchsorted(cum, np.arange(HALF_EDGES, int(cum[-1]), HALF_EDGES)) + 1
+    cuts = np.unique(np.concatenate([[0], cuts, [n_welded]]))
+    n_ranges = len(cuts) - 1
+    del cum
+    dtype = np.uint8 if n_ranges < 255 else np.uint16 if n_ranges < 65535 else np.uint32
+    # the range of each welded vertex as a lower end, and one past the last for none
+    of_end = np.append(np.repeat(np.arange(n_ranges, dtype=dtype), np.diff(cuts)), n_ranges)
+    of_end = of_end.astype(dtype)
+    rank = np.empty(3 * len(f), dtype)
+    for k in range(3):
+        u, w = _corner_ends(wid, f, k)
+        # a face collapsed by welding has no edge there: in no range
+        rank[k::3] = of_end[np.where(u != w, np.minimum(u, w), n_welded)]
+    del u, w, of_end
+    release_freed_memory()
+    # the edges written in place, as many rows as half-edges reserved (pages never written
+    # take no memory) and the rest handed back at the end: no parts joined, and the ranges'
+    # temporaries, all of one size, reuse each other's memory
+    cap = int(np.count_nonzero(rank < n_ranges))
+    keys = np.empty((cap, 2), np.int32)
+    counts = np.empty(cap, np.uint8)
+    f0, f1 = np.empty(cap, np.int32), np.empty(cap, np.int32)
+    flip = np.empty(cap, bool)
+    at = 0
+    for r in range(n_ranges):
+        sel = np.flatnonzero(rank == r)  # the range's half-edges, in increasing order
+        if not len(sel):
+            continue
+        u, w = _corner_ends(wid, f, sel)
+        lo, hi, forward = np.minimum(u, w), np.maximum(u, w), u < w
+        del u, w
+        order = np.argsort(lo.astype(np.int64) * n_welded + hi, kind="stable")
+        key = lo[order].astype(np.int64) * n_welded + hi[order]
+        head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
+        del key
+        n = np.diff(np.append(head, len(sel)))
+        i0 = order[head]
+        i1 = np.where(n >= 2, order[np.minimum(head + 1, len(sel) - 1)], i0)
+        del order, head
+        rows = slice(at, at + len(i0))
+        keys[rows, 0], keys[rows, 1] = lo[i0], hi[i0]
+        counts[rows] = np.minimum(n, 3)
+        f0[rows], f1[rows] = sel[i0] // 3, sel[i1] // 3
+        flip[rows] = forward[i0] == forward[i1]
+        at += len(i0)
+    del rank
+    for x in (keys, counts, f0, f1, flip):
+        x.resize((at, *x.shape[1:]), refcheck=False)  # in place: the tail is never copied
+    return keys, counts, f0, f1, flip
+
+
 @dataclass(eq=False)
 class Topology:
-    """What of the feature edges does not depend on the camera: the triangle soup
-    (:func:`mesh_arrays`), its unit face normals ``unit`` (0 for a degenerate face) and the
-    planes' offsets ``offset = unit . p0``, the welded vertices (their first
-    occurrence's position ``welded``), and per welded edge ``E``: its ends ``keys`` (E, 2), its
-    face count ``counts``, its first two faces ``f0``, ``f1`` (``f1 = f0`` with one face),
-    ``flip`` (the two faces wind the edge the same way: ``f1``'s normal is turned for it) and
-    ``cos_n``, the cosine between the two (turned) normals (1 where undefined). The
-    intersection segments (:func:`~mi_npr.strokes.intersect.intersections`) are found on first
-    use."""
+    """What of the feature edges does not depend on the camera, kept small (a scene's meshes
+    have millions of triangles): per face (F) its object id ``face_oid`` (a face's primitive
+    index is its position among its object's faces, from ``first_face``, the index of each
+    object id's first face), unit normal ``unit`` (0 for a degenerate face) and plane offset
+    ``offset = unit . p0``; the welded vertices (their first occurrence's position
+    ``welded``, float32 when that holds them exactly, as it does for Mitsuba's single-precision
+    meshes); per welded edge (E) its ends ``keys`` (E, 2), its face count ``counts`` (3: three
+    or more), its first two faces ``f0``, ``f1`` (``f1 = f0`` with one face) and ``flip`` (the
+    two faces wind the edge the same way: ``f1``'s normal is turned for it); and the
+    intersection segments ``crossings`` (:func:`~mi_npr.strokes.intersect.intersections`: ends
+    ``p``, ``q``, faces ``fa``, ``fb``, end nodes ``va``, ``vb``). The vertex positions and
+    faces themselves are not kept."""
 
-    v: np.ndarray
-    f: np.ndarray
     face_oid: np.ndarray
-    face_prim: np.ndarray
+    first_face: np.ndarray
     unit: np.ndarray
     offset: np.ndarray
     size: float
@@ -176,120 +285,118 @@ class Topology:
     f0: np.ndarray
     f1: np.ndarray
     flip: np.ndarray
-    cos_n: np.ndarray
-    crossings: tuple[np.ndarray, ...] | None = None
-    _two: np.ndarray | None = None
+    crossings: tuple[np.ndarray, ...]
     _kinds: dict = field(default_factory=dict)
+    #: Views classified so far (:func:`view_edges`).
+    views: int = 0
 
     @classmethod
-    def of(cls, v: np.ndarray, f: np.ndarray, face_oid: np.ndarray, face_prim: np.ndarray):
-        """The topology of a triangle soup (class docstring)."""
+    def of(cls, table: ObjectTable) -> Topology:
+        """The topology of the meshes of ``table`` (their triangle soup, :func:`mesh_arrays`;
+        class docstring). Built in the order that keeps the fewest arrays alive at once: the
+        intersections first (from the soup alone), the normals, then the edges (from the faces
+        alone)."""
+        v, f, face_oid = mesh_arrays(table)
+        z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
         if len(f) == 0:
-            z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
             zi = z.astype(np.int32)
+            crossings = (z3, z3, zi, zi, z, z)
             return cls(
-                v,
-                f,
-                z,
+                zi,
                 z,
                 z3,
-                z[:0] * 0.0,
+                z * 0.0,
                 1.0,
                 z3,
                 np.zeros((0, 2), np.int32),
-                zi,
+                z.astype(np.uint8),
                 zi,
                 zi,
                 z.astype(bool),
-                z * 0.0,
+                crossings,
             )
+        heads = np.flatnonzero(np.append(True, face_oid[1:] != face_oid[:-1]))
+        first_face = np.zeros(int(face_oid.max()) + 1, np.int64)
+        first_face[face_oid[heads]] = heads
         size = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
-        wid = weld(v, WELD * size)
+        p, q, fa, fb = intersections(v, f, face_oid)
+        release_freed_memory()
+        wid = weld(v, WELD * size).astype(np.int32)
         n_welded = int(wid.max()) + 1
-        # half-edges (from, to) and their face, in 32 bits (memory: 3 per face); one sort of
-        # a 64-bit key groups each edge's
-        fw = wid.astype(np.int32)[f]  # welded corners (F, 3)
-        hu = fw.reshape(-1)
-        hv = fw[:, [1, 2, 0]].reshape(-1)
-        hface = np.repeat(np.arange(len(f), dtype=np.int32), 3)
-        del fw
-        ok = hu != hv  # a face collapsed by welding has no edge there
-        if not ok.all():
-            hu, hv, hface = hu[ok], hv[ok], hface[ok]
-        del ok
-        forward = hu < hv
-        lo, hi = np.minimum(hu, hv), np.maximum(hu, hv)
-        del hu, hv
-        key = lo.astype(np.int64) * n_welded + hi
-        order = np.argsort(key, kind="stable")
-        key = key[order]
-        head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
-        del key
-        counts = np.diff(np.append(head, len(order))).astype(np.int32)
-        h0 = order[head]
-        h1 = np.where(counts >= 2, order[np.minimum(head + 1, len(order) - 1)], h0)
-        del order, head
-        f0, f1 = hface[h0], hface[h1]
-        flip = forward[h0] == forward[h1]
-        keys = np.stack([lo[h0], hi[h0]], 1)
-        del hface, forward, lo, hi, h0, h1
+        # the crossings' ends welded into nodes of their own, numbered after the vertices
+        node = weld(np.concatenate([p, q]), WELD * size) + n_welded
+        va, vb = node[: len(p)], node[len(p) :]
+        keep = va != vb
+        crossings = (p[keep], q[keep], fa[keep].astype(np.int32), fb[keep].astype(np.int32))
+        crossings += (va[keep], vb[keep])
+        del p, q, fa, fb, node, va, vb, keep
+        release_freed_memory()
+        rep = np.zeros(n_welded, np.int64)
+        rep[wid[::-1]] = np.arange(len(wid))[::-1]
+        welded = v[rep]
+        del rep
+        if np.array_equal(welded.astype(np.float32), welded):
+            welded = welded.astype(np.float32)  # the same values in half the memory
         # unit normals and plane offsets, a block of faces at a time (bounded temporaries)
         unit = np.empty((len(f), 3))
         offset = np.empty(len(f))
-        for c in range(0, len(f), 1 << 20):
-            fc = f[c : c + (1 << 20)]
+        for c in range(0, len(f), FACES):
+            fc = f[c : c + FACES]
             p0 = v[fc[:, 0]]
             n = np.cross(v[fc[:, 1]] - p0, v[fc[:, 2]] - p0)
             length = np.linalg.norm(n, axis=1)
             unit[c : c + len(fc)] = n / np.where(length > 0, length, np.inf)[:, None]
             offset[c : c + len(fc)] = np.einsum("ij,ij->i", unit[c : c + len(fc)], p0)
-        # cos of the (turned) normals, a column at a time; a degenerate face: 1 (no crease)
-        cos_n = np.zeros(len(f0))
-        for k in range(3):
-            col = unit[:, k]
-            cos_n += col[f0] * col[f1]
-        cos_n = np.where(flip, -cos_n, cos_n)
-        degenerate = ~np.any(unit != 0, axis=1)
-        cos_n[degenerate[f0] | degenerate[f1]] = 1.0
-        rep = np.zeros(n_welded, np.int64)
-        rep[wid[::-1]] = np.arange(len(wid))[::-1]
+        del v, fc, p0, n, length  # the vertices: the edges need the welded faces alone
+        release_freed_memory()
+        keys, counts, f0, f1, flip = _group_edges(wid, f, n_welded)
         return cls(
-            v,
-            f,
             face_oid,
-            face_prim,
+            first_face,
             unit,
             offset,
             size,
-            v[rep],
+            welded,
             keys,
             counts,
             f0,
             f1,
             flip,
-            cos_n,
+            crossings,
         )
 
-    @property
-    def two(self) -> np.ndarray:
-        """The edges of exactly two faces (E,) bool."""
-        if self._two is None:
-            self._two = self.counts == 2
-        return self._two
+    def prim(self, faces: np.ndarray) -> np.ndarray:
+        """The primitive index of each face (its position among its object's faces)."""
+        return faces - self.first_face[self.face_oid[faces]]
 
     def static_kinds(self, crease_angle: float) -> np.ndarray:
         """Each edge's kind (E,) int8 as far as it does not depend on the camera: crease,
-        material or border (module docstring), -1 for none (a silhouette overrides them)."""
+        material or border (module docstring), -1 for none (a silhouette overrides them).
+        Creases compare ``cos_n``, the cosine between the two (turned) normals (1 where
+        either face is degenerate), with ``cos(180 - crease_angle)``."""
         if crease_angle not in self._kinds:
+            self._kinds = {}  # one angle kept: the memory of one array
             # dihedral < crease_angle  <=>  angle(n0, n1) > 180 - crease_angle
             crease_cos = math.cos(math.radians(180.0 - crease_angle))
-            crease = (crease_angle > 0) & (self.cos_n < crease_cos)
+            degenerate = ~np.any(self.unit != 0, axis=1)
             kind = np.full(len(self.counts), -1, np.int8)
-            kind[self.counts >= 3] = _CREASE
-            kind[self.two & crease] = _CREASE
-            kind[self.two & (self.face_oid[self.f0] != self.face_oid[self.f1])] = _MATERIAL
-            kind[self.counts == 1] = _BORDER
-            self._kinds = {crease_angle: kind}  # one angle kept: the memory of one array
+            for c in range(0, len(kind), EDGE_BLOCK):  # a block of edges at a time (memory)
+                f0, f1 = self.f0[c : c + EDGE_BLOCK], self.f1[c : c + EDGE_BLOCK]
+                counts = self.counts[c : c + EDGE_BLOCK]
+                cos_n = np.zeros(len(f0))
+                for k in range(3):
+                    col = self.unit[:, k]
+                    cos_n += col[f0] * col[f1]
+                cos_n = np.where(self.flip[c : c + EDGE_BLOCK], -cos_n, cos_n)
+                cos_n[degenerate[f0] | degenerate[f1]] = 1.0
+                two = counts == 2
+                crease = (crease_angle > 0) & (cos_n < crease_cos)
+                block = kind[c : c + EDGE_BLOCK]
+                block[counts >= 3] = _CREASE
+                block[two & crease] = _CREASE
+                block[two & (self.face_oid[f0] != self.face_oid[f1])] = _MATERIAL
+                block[counts == 1] = _BORDER
+            self._kinds[crease_angle] = kind
         return self._kinds[crease_angle]
 
     def facing(self, origin: np.ndarray) -> np.ndarray:
@@ -320,78 +427,151 @@ def topology(table: ObjectTable) -> Topology:
     if entry is not None and entry[0] == key_t:
         return entry[2]
     entry = _LAST[0] = None  # the old one's memory first
-    topo = Topology.of(*mesh_arrays(table))
+    topo = Topology.of(table)
+    release_freed_memory()
     _LAST[0] = (key_t, buffers, topo)
     return topo
+
+
+class ViewEdges:
+    """The feature edges of one view (module docstring), their rows made on demand
+    (:meth:`take`): the mesh edges ``edge`` (indices into the :class:`Topology`'s edges) with
+    their ``kind`` and drawn ``face``, then the intersection segments with their drawn face
+    ``cross_face``. The full rows of a large model's edges would take ~100 bytes each at once;
+    these take ~10. ``first``: the first view of its topology (a one-off extraction, whose
+    memory peak counts, rather than one of many views of a scene, which reuse each other's
+    buffers)."""
+
+    def __init__(
+        self,
+        topo: Topology,
+        edge: np.ndarray,
+        kind: np.ndarray,
+        face: np.ndarray,
+        cross_face: np.ndarray,
+        first: bool = False,
+    ) -> None:
+        self.topo, self.edge, self.kind, self.face = topo, edge, kind, face
+        self.cross_face, self.first = cross_face, first
+
+    def __len__(self) -> int:
+        return len(self.edge) + len(self.cross_face)
+
+    def max_node(self) -> int:
+        """The largest node id of the edges' ends (-1 for none)."""
+        t = self.topo
+        m = int(t.keys[self.edge].max(initial=-1)) if len(self.edge) else -1
+        if len(self.cross_face):
+            m = max(m, int(t.crossings[4].max()), int(t.crossings[5].max()))
+        return m
+
+    def take(self, rows: slice) -> FeatureEdges:
+        """The full rows of the edges ``rows`` (a slice): :class:`FeatureEdges`."""
+        start, stop, step = rows.indices(len(self))
+        if step != 1:
+            raise ValueError("ViewEdges.take: a slice with step 1")
+        stop = max(start, stop)
+        n_mesh = len(self.edge)
+        t = self.topo
+        out = []
+        if start < n_mesh:
+            m = slice(start, min(stop, n_mesh))
+            e, face = self.edge[m], self.face[m]
+            f0, f1, two = t.f0[e], t.f1[e], t.counts[e] == 2
+            faces = np.zeros((len(e), 2, 2), np.int64)
+            faces[:, 0, 0], faces[:, 0, 1] = t.face_oid[f0], t.prim(f0)
+            faces[:, 1, 0] = np.where(two, t.face_oid[f1], 0)
+            faces[:, 1, 1] = np.where(two, t.prim(f1), 0)
+            keys = t.keys[e]
+            out.append(
+                FeatureEdges(
+                    a=t.welded[keys[:, 0]].astype(np.float64),
+                    b=t.welded[keys[:, 1]].astype(np.float64),
+                    va=keys[:, 0].astype(np.int64),
+                    vb=keys[:, 1].astype(np.int64),
+                    kind=self.kind[m].astype(np.int64),
+                    object_id=t.face_oid[face].astype(np.uint32),
+                    prim=t.prim(face).astype(np.uint32),
+                    faces=faces,
+                )
+            )
+        if stop > n_mesh:
+            x = slice(max(start, n_mesh) - n_mesh, stop - n_mesh)
+            p, q, fa, fb, va, vb = (c[x] for c in t.crossings)
+            face = self.cross_face[x]
+            oid = t.face_oid
+            faces = np.stack(
+                [np.stack([oid[fa], t.prim(fa)], 1), np.stack([oid[fb], t.prim(fb)], 1)], 1
+            )
+            out.append(
+                FeatureEdges(
+                    a=p,
+                    b=q,
+                    va=va,
+                    vb=vb,
+                    kind=np.full(len(p), KINDS.index("intersection"), np.int64),
+                    object_id=oid[face].astype(np.uint32),
+                    prim=t.prim(face).astype(np.uint32),
+                    faces=faces.astype(np.int64),
+                )
+            )
+        if not out:
+            return FeatureEdges.empty()
+        return out[0] if len(out) == 1 else _concat(out[0], out[1])
+
+
+def view_edges(
+    table: ObjectTable, origin: np.ndarray, crease_angle: float = 134.0, intersect: bool = True
+) -> ViewEdges:
+    """The feature edges of every mesh in ``table`` seen from ``origin`` (module docstring),
+    with the ``intersection`` lines between different meshes when ``intersect``, their rows
+    made on demand (:class:`ViewEdges`)."""
+    topo = topology(table)
+    zi = np.zeros(0, np.int64)
+    if len(topo.face_oid) == 0:
+        return ViewEdges(topo, zi, zi.astype(np.int8), zi, zi)
+    first = topo.views == 0
+    topo.views += 1
+    d = topo.facing(origin)
+    # front-facing tests as byte gathers over every edge (a block of edges at a time: bounded
+    # temporaries); the values only for the drawn ones
+    neg, pos = d < 0, d > 0
+    static = topo.static_kinds(crease_angle)
+    parts: dict[str, list[np.ndarray]] = {"e": [], "kind": [], "face": []}
+    for c in range(0, len(static), EDGE_BLOCK):
+        f0, f1 = topo.f0[c : c + EDGE_BLOCK], topo.f1[c : c + EDGE_BLOCK]
+        flip, two = topo.flip[c : c + EDGE_BLOCK], topo.counts[c : c + EDGE_BLOCK] == 2
+        front0 = neg[f0]
+        front1 = np.where(flip, pos[f1], neg[f1])  # the turned normal's sign
+        kind = static[c : c + EDGE_BLOCK].copy()
+        kind[two & (front0 != front1)] = _SIL
+        e = np.flatnonzero(kind >= 0)
+        f0, f1, two = f0[e], f1[e], two[e]
+        # the face drawn: the one facing the camera more
+        d0, d1 = d[f0], np.where(flip[e], -d[f1], d[f1])
+        parts["face"].append(np.where(two & (d1 < d0), f1, f0))
+        parts["e"].append(e + c)
+        parts["kind"].append(kind[e])
+    del neg, pos
+    e, kind, face = (np.concatenate(parts[k]) for k in ("e", "kind", "face"))
+    cross_face = zi
+    if intersect:
+        # each end lies on both planes: the plane's facing value there is the face's
+        _, _, fa, fb, _, _ = topo.crossings
+        cross_face = np.where(d[fb] < d[fa], fb, fa)
+    del d, parts
+    if first:
+        release_freed_memory()  # the temporaries over every face and edge
+    return ViewEdges(topo, e, kind, face, cross_face, first)
 
 
 def feature_edges(
     table: ObjectTable, origin: np.ndarray, crease_angle: float = 134.0, intersect: bool = True
 ) -> FeatureEdges:
     """The feature edges of every mesh in ``table`` seen from ``origin`` (module docstring),
-    with the ``intersection`` lines between different meshes when ``intersect``."""
-    topo = topology(table)
-    if len(topo.f) == 0:
-        return FeatureEdges.empty()
-    d = topo.facing(origin)
-    # front-facing tests as byte gathers over every edge; the values only for the drawn ones
-    neg, pos = d < 0, d > 0
-    front0 = neg[topo.f0]
-    front1 = np.where(topo.flip, pos[topo.f1], neg[topo.f1])  # the turned normal's sign
-    kind = topo.static_kinds(crease_angle).copy()
-    kind[topo.two & (front0 != front1)] = _SIL
-    e = np.flatnonzero(kind >= 0)
-    f0, f1, two = topo.f0[e], topo.f1[e], topo.two[e]
-    # the face drawn: the one facing the camera more
-    d0, d1 = d[f0], np.where(topo.flip[e], -d[f1], d[f1])
-    face = np.where(two & (d1 < d0), f1, f0)
-    o0, o1 = topo.face_oid[f0], topo.face_oid[f1]
-    faces = np.zeros((len(e), 2, 2), np.int64)
-    faces[:, 0, 0], faces[:, 0, 1] = o0, topo.face_prim[f0]
-    faces[:, 1, 0] = np.where(two, o1, 0)
-    faces[:, 1, 1] = np.where(two, topo.face_prim[f1], 0)
-    keys = topo.keys[e]
-    mesh = FeatureEdges(
-        a=topo.welded[keys[:, 0]],
-        b=topo.welded[keys[:, 1]],
-        va=keys[:, 0],
-        vb=keys[:, 1],
-        kind=kind[e],
-        object_id=topo.face_oid[face].astype(np.uint32),
-        prim=topo.face_prim[face].astype(np.uint32),
-        faces=faces,
-    )
-    if not intersect:
-        return mesh
-    return _concat(mesh, _intersection_edges(topo, d))
-
-
-def _intersection_edges(topo: Topology, d: np.ndarray) -> FeatureEdges:
-    """The ``intersection`` edges (:mod:`mi_npr.strokes.intersect`), their ends welded into
-    nodes numbered after the mesh vertices'; ``d``: :meth:`Topology.facing`."""
-    if topo.crossings is None:
-        p, q, fa, fb = intersections(topo.v, topo.f, topo.face_oid)
-        node = weld(np.concatenate([p, q]), WELD * topo.size) + len(topo.welded)
-        va, vb = node[: len(p)], node[len(p) :]
-        keep = va != vb
-        topo.crossings = (p[keep], q[keep], fa[keep], fb[keep], va[keep], vb[keep])
-    p, q, fa, fb, va, vb = topo.crossings
-    if not len(p):
-        return FeatureEdges.empty()
-    # each end lies on both planes: the plane's facing value there is the face's
-    face = np.where(d[fb] < d[fa], fb, fa)
-    oid, prim = topo.face_oid, topo.face_prim
-    faces = np.stack([np.stack([oid[fa], prim[fa]], 1), np.stack([oid[fb], prim[fb]], 1)], 1)
-    return FeatureEdges(
-        a=p,
-        b=q,
-        va=va,
-        vb=vb,
-        kind=np.full(len(p), KINDS.index("intersection"), np.int64),
-        object_id=oid[face].astype(np.uint32),
-        prim=prim[face].astype(np.uint32),
-        faces=faces.astype(np.int64),
-    )
+    with the ``intersection`` lines between different meshes when ``intersect``: every row of
+    :func:`view_edges` at once."""
+    return view_edges(table, origin, crease_angle, intersect).take(slice(None))
 
 
 def _concat(x: FeatureEdges, y: FeatureEdges) -> FeatureEdges:

@@ -24,7 +24,7 @@ vertex (the last vertex of an open stroke: of the edge that arrives).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import drjit as dr
@@ -39,7 +39,7 @@ from ..raycast import cast, film_grid, pixel_rays
 from ..raytree.tracer import MAX_DEPTH
 from ..scene import ObjectTable, object_table
 from .chain import chain_order
-from .edges import FeatureEdges, Projector, feature_edges
+from .edges import FeatureEdges, Projector, ViewEdges, release_freed_memory, view_edges
 from .model import KINDS, Stroke, Strokes
 from .outlines import outline_strokes
 from .raytree import raytree_strokes
@@ -60,22 +60,22 @@ def _film_param_to_3d(u: np.ndarray, wa: np.ndarray, wb: np.ndarray) -> np.ndarr
     return u * wa / ((1.0 - u) * wb + u * wa)
 
 
-#: Feature edges whose samples are cast at once (bounds the memory of the samples).
-EDGE_CHUNK = 1 << 18
+#: Feature edges clipped at once (bounds the memory of the clipping's temporaries).
+CLIP_BLOCK = 1 << 16
+#: Visibility samples cast in one launch, and the most edges they come from: whole edges
+#: are added to a launch until either is reached (bounds the memory of the samples and the
+#: edges, ~40 and ~120 bytes each, whatever the film's size; each launch traces the ray loop
+#: again, ~15 ms, and the bisections of all the launches wait for one launch after them).
+SAMPLES = 1 << 19
+EDGE_CHUNK = 1 << 17
 
 
-def _split(
-    scene: mi.Scene,
-    table: ObjectTable,
-    proj: Projector,
-    edges: FeatureEdges,
-    max_qi: int,
-    fresh: int,
-) -> tuple[dict[str, np.ndarray], int]:
-    """The visibility-split pieces of ``edges`` (:class:`_Pieces`'s fields) and how many
-    pieces there were before those behind more than ``max_qi`` surfaces were dropped; the
-    nodes that are not welded vertices are numbered from ``fresh`` on (and ``-1 - n`` for a
-    node ``n`` on the image frame)."""
+def _clip(proj: Projector, edges: FeatureEdges) -> dict[str, np.ndarray]:
+    """The parts of ``edges`` inside the view frustum, one row per edge that has one: the
+    clipped ends ``A``, ``B`` (world) and their depths ``wa``, ``wb``, the film length and
+    the number of visibility samples ``count``, whether each end is the edge's own
+    (``whole_a``, ``whole_b``: not cut by the frustum), and the edge's own fields (``va``,
+    ``vb``, ``kind``, ``object_id``, ``prim``, ``faces``)."""
     ha, hb = proj.clip(edges.a), proj.clip(edges.b)
     lo, hi = proj.clip_homogeneous(ha, hb)
     e = np.flatnonzero(hi - lo > 1e-12)
@@ -86,33 +86,114 @@ def _split(
     # the clipped ends' film positions from the ends' homogeneous coordinates (linear)
     xa, wa = proj.film_of(ha + lo_e * (hb - ha))
     xb, wb = proj.film_of(ha + hi_e * (hb - ha))
-    del ha, hb
     length = np.hypot(*(xb - xa).T)
     count = np.maximum(2, np.ceil(length / SPACING).astype(np.int64) + 1)
-    owner = np.repeat(np.arange(len(e)), count)
-    first = np.concatenate([[0], np.cumsum(count)[:-1]])
-    k = np.arange(len(owner)) - first[owner]
-    u = k / (count[owner] - 1)
+    out = dict(A=A, B=B, wa=wa, wb=wb, length=length, count=count)
+    out.update(whole_a=lo[e] == 0, whole_b=hi[e] == 1)
+    for k in ("va", "vb", "kind", "object_id", "prim"):
+        out[k] = getattr(edges, k)[e]
+    out["faces"] = edges.faces[e].astype(np.uint32)  # ids and primitives: 32 bits each
+    return out
 
-    # counted to max_qi + 1: the pieces beyond max_qi are told apart, then dropped
-    rays = SegmentVisibility(scene, table, proj.origin, A, B, wa, wb, edges.faces[e], max_qi + 1)
 
-    def state_at(idx: np.ndarray, uu: np.ndarray) -> np.ndarray:
-        qi, glass = rays.at(idx, uu)
-        return qi.astype(np.int64) * 2 + glass
+def _launches(proj: Projector, edges: FeatureEdges | ViewEdges) -> Iterator[dict[str, np.ndarray]]:
+    """The clipped edges (:func:`_clip`'s rows) in order, in runs of whole edges of at least
+    :data:`SAMPLES` samples or :data:`EDGE_CHUNK` edges (the last run: what is left; one
+    empty run when there is nothing), clipped :data:`CLIP_BLOCK` edges at a time."""
+    pending: list[dict[str, np.ndarray]] = []
+    n_edges = n_samples = 0
+    for c in range(0, len(edges), CLIP_BLOCK):
+        part = _clip(proj, edges.take(slice(c, c + CLIP_BLOCK)))
+        pending.append(part)
+        n_edges += len(part["A"])
+        n_samples += int(part["count"].sum())
+        if n_samples >= SAMPLES or n_edges >= EDGE_CHUNK:
+            yield _joined(pending)
+            n_edges = n_samples = 0
+    if pending or not len(edges):
+        yield _joined(pending) if pending else _clip(proj, edges.take(slice(0, 0)))
 
-    state = state_at(owner, u)
+
+def _joined(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The rows of ``parts`` one after the other, a field at a time (each part's copy dropped
+    as it is joined); ``parts`` is left empty."""
+    out = {key: np.concatenate([p.pop(key) for p in parts]) for key in list(parts[0])}
+    parts.clear()
+    return out
+
+
+def _sample_u(j: np.ndarray, owner: np.ndarray, first: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """The film parameter ``k / (count - 1)`` of samples ``j``, each the ``k``-th of the
+    ``count`` samples of its edge ``owner[j]``, whose first sample is ``first[owner[j]]``
+    (exact: integers in float64)."""
+    o = owner[j]
+    return (j.astype(np.float64) - first[o]) / (count[o] - 1)
+
+
+def _states(
+    scene: mi.Scene,
+    table: ObjectTable,
+    proj: Projector,
+    clipped: dict[str, np.ndarray],
+    max_qi: int,
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The samples of the ``clipped`` edges (:func:`_clip`'s rows) cast in one launch: the
+    state ``2 QI + through_glass`` of each edge's first sample, and where two neighbouring
+    samples of an edge differ, the ``changes``: the edge, the two samples' film parameters
+    ``ulo``, ``uhi`` and states ``slo``, ``shi`` (in order along each edge). The rays count to
+    ``max_qi + 1``: the parts beyond ``max_qi`` are told apart, then dropped."""
+    count = clipped["count"]
+    owner = np.repeat(np.arange(len(count), dtype=np.uint32), count)
+    first = np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)
+    # the samples' parameters in single precision (what the rays take), a block at a time:
+    # no double-precision copy of them all
+    u = np.empty(len(owner), np.float32)
+    for b in range(0, len(u), 1 << 18):
+        u[b : b + (1 << 18)] = _sample_u(
+            np.arange(b, min(b + (1 << 18), len(u))), owner, first, count
+        )
+    rays = _rays(scene, table, proj, clipped, max_qi)
+    qi, glass = rays.at(owner, u)
+    del u, rays
+    state = qi * 2 + glass  # int32
+    del qi, glass
     change = np.flatnonzero((owner[1:] == owner[:-1]) & (state[1:] != state[:-1]))
-    ulo, uhi = u[change], u[change + 1]
-    slo = state[change]
-    idx = owner[change]
-    ulo, uhi = rays.bisect(idx, ulo, uhi, slo, ITERATIONS)
-    split_u = 0.5 * (ulo + uhi)
-    # pieces: per edge, boundaries 0, changes..., 1 (the changes of one edge come in order
-    # along it), each with the state of the samples after its start
-    pe = np.concatenate([np.arange(len(e)), idx])
-    u0 = np.concatenate([np.zeros(len(e)), split_u])
-    st = np.concatenate([state[first], state[change + 1]]) if len(e) else np.zeros(0, int)
+    changes = dict(
+        edge=owner[change].astype(np.int64),
+        ulo=_sample_u(change, owner, first, count),
+        uhi=_sample_u(change + 1, owner, first, count),
+        slo=state[change],
+        shi=state[change + 1],
+    )
+    return state[first] if len(count) else np.zeros(0, np.int32), changes
+
+
+def _rays(
+    scene: mi.Scene,
+    table: ObjectTable,
+    proj: Projector,
+    clipped: dict[str, np.ndarray],
+    max_qi: int,
+) -> SegmentVisibility:
+    """The visibility rays to the ``clipped`` edges, counting to ``max_qi + 1``."""
+    A, B, wa, wb = clipped["A"], clipped["B"], clipped["wa"], clipped["wb"]
+    return SegmentVisibility(scene, table, proj.origin, A, B, wa, wb, clipped["faces"], max_qi + 1)
+
+
+def _split(
+    length: np.ndarray, state0: np.ndarray, changes: dict[str, np.ndarray], split_u: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """The visibility pieces of edges of film length ``length`` whose first sample has state
+    ``state0`` and whose state changes at ``split_u`` (``changes``' edge and state after):
+    ``(edge, u0, u1, state, first, last)`` per piece, in order along each edge, the edges in
+    order (``first``, ``last``: the edge's first and last piece). Each edge's pieces depend on
+    that edge alone."""
+    n_e = len(length)
+    # pieces: per edge, boundaries 0, changes..., 1, each with the state of the samples after
+    # its start
+    pe = np.concatenate([np.arange(n_e), changes["edge"]])
+    u0 = np.concatenate([np.zeros(n_e), split_u])
+    st = np.concatenate([state0, changes["shi"]])
     order = np.lexsort((u0, pe))
     pe, u0, st = pe[order], u0[order], st[order]
     u1 = np.append(u0[1:], 1.0)
@@ -134,49 +215,115 @@ def _split(
     last = np.append(pe[1:] != pe[:-1], True)
     u1[last] = 1.0
     first_of = np.append(True, pe[1:] != pe[:-1])
-    # nodes: welded vertices at unclipped ends, fresh ids elsewhere; the two pieces of a
-    # change share a node (their states differ: a point where two strokes meet, unchained)
-    node0 = fresh + np.arange(len(pe))
-    node1 = np.append(node0[1:], 0)
-    clipped = -1 - node0  # an end on the image frame: its own node
-    node0 = np.where(first_of & (lo[e][pe] == 0), edges.va[e][pe], node0)
-    node1 = np.where(last, np.where(hi[e][pe] == 1, edges.vb[e][pe], clipped), node1)
-    count = len(pe)
-    shown = st // 2 <= max_qi
-    pe, u0, u1, st, node0, node1 = (x[shown] for x in (pe, u0, u1, st, node0, node1))
+    return pe, u0, u1, st, first_of, last
+
+
+def _shown(
+    proj: Projector,
+    clipped: dict[str, np.ndarray],
+    pieces: tuple[np.ndarray, ...],
+    max_qi: int,
+    edge_id: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """The pieces (:func:`_split`'s) of the ``clipped`` edges that are not behind more than
+    ``max_qi`` surfaces, with their 3-D and film ends and their edge's fields; ``edge``: the
+    edge's number among all the clipped edges (``edge_id`` of each of these), ``rank``: the
+    piece's among its edge's."""
+    pe, u0, u1, st, first_of, last = pieces
+    rank = np.arange(len(pe)) - np.searchsorted(pe, pe)
+    keep = st // 2 <= max_qi
+    pe, u0, u1, st, first_of, last, rank = (x[keep] for x in (pe, u0, u1, st, first_of, last, rank))
+    A, B, wa, wb = clipped["A"], clipped["B"], clipped["wa"], clipped["wb"]
     s0 = _film_param_to_3d(u0, wa[pe], wb[pe])
     s1 = _film_param_to_3d(u1, wa[pe], wb[pe])
     p0 = A[pe] + s0[:, None] * (B[pe] - A[pe])
     p1 = A[pe] + s1[:, None] * (B[pe] - A[pe])
     xy0, d0 = proj.film(p0)
     xy1, d1 = proj.film(p1)
-    out = dict(state=st, p0=p0, p1=p1, xy0=xy0, d0=d0, xy1=xy1, d1=d1, node0=node0, node1=node1)
-    out.update(kind=edges.kind[e][pe], object_id=edges.object_id[e][pe], prim=edges.prim[e][pe])
-    return out, count
+    out = dict(state=st.astype(np.int64), p0=p0, p1=p1, xy0=xy0, d0=d0, xy1=xy1, d1=d1)
+    for k in ("kind", "object_id", "prim", "va", "vb"):
+        out[k] = clipped[k][pe]
+    out["kind"] = out["kind"].astype(np.int64)
+    out.update(edge=edge_id[pe], rank=rank, node_a=first_of & clipped["whole_a"][pe])
+    out["node_b"] = last & clipped["whole_b"][pe]
+    out["last"] = last
+    return out
 
 
 class _Pieces:
-    """Visibility-split pieces of the clipped feature edges (arrays of length P), the edges
-    taken :data:`EDGE_CHUNK` at a time."""
+    """Visibility-split pieces of the clipped feature edges (arrays of length P).
+
+    The samples are cast a launch at a time (:func:`_launches`); an edge whose samples all
+    agree is one piece at once, the others wait with their changes for one bisection launch
+    over all of them (each launch traces the ray loop again). The nodes that are not welded
+    vertices are numbered from ``edges.max_node() + 1`` on in the order of all the pieces
+    (those dropped too), edge by edge, a piece's ``-1 - n`` for its end on the image
+    frame."""
 
     def __init__(
         self,
         scene: mi.Scene,
         table: ObjectTable,
         proj: Projector,
-        edges: FeatureEdges,
+        edges: FeatureEdges | ViewEdges,
         max_qi: int,
     ) -> None:
-        fresh = int(max(edges.va.max(initial=-1), edges.vb.max(initial=-1))) + 1
-        parts = []
-        for c in range(0, max(len(edges), 1), EDGE_CHUNK):
-            part, count = _split(
-                scene, table, proj, edges.take(slice(c, c + EDGE_CHUNK)), max_qi, fresh
+        shown, counts, waiting, state0, changes = [], [], [], [], []
+        n_edges = n_waiting = 0
+        first = getattr(edges, "first", False)
+        for clipped in _launches(proj, edges):
+            s0, ch = _states(scene, table, proj, clipped, max_qi)
+            changed = np.zeros(len(s0), bool)
+            changed[ch["edge"]] = True
+            # an edge whose samples agree: one piece, [0, 1] (kept where it is in sight)
+            plain = np.flatnonzero(~changed & (s0 // 2 <= max_qi))
+            one, n = np.ones(len(plain), bool), len(plain)
+            pieces = (np.arange(n), np.zeros(n), np.ones(n), s0[plain], one, one)
+            rows = {k: v[plain] for k, v in clipped.items()}
+            shown.append(_shown(proj, rows, pieces, max_qi, n_edges + plain))
+            counts.append(np.where(changed, 0, 1))  # the others' counts: once split
+            # the others wait, with their changes, for the bisections
+            wait = np.flatnonzero(changed)
+            rows = {k: v[wait] for k, v in clipped.items()}
+            rows["edge_id"] = n_edges + wait
+            waiting.append(rows)
+            state0.append(s0[wait])
+            ch["edge"] = n_waiting + np.searchsorted(wait, ch["edge"])
+            changes.append(ch)
+            n_edges += len(s0)
+            n_waiting += len(wait)
+            del clipped, rows
+            if first:  # the launch's memory handed back (see the end)
+                dr.flush_malloc_cache()
+                release_freed_memory()
+        counts = np.concatenate(counts)
+        if n_waiting:
+            rows, ch = _joined(waiting), _joined(changes)
+            edge_id = rows.pop("edge_id")
+            ulo, uhi = _rays(scene, table, proj, rows, max_qi).bisect(
+                ch["edge"], ch["ulo"], ch["uhi"], ch["slo"], ITERATIONS
             )
-            parts.append(part)
-            fresh += count
-        for key in parts[0]:
-            setattr(self, key, np.concatenate([p[key] for p in parts]))
+            pieces = _split(rows["length"], np.concatenate(state0), ch, 0.5 * (ulo + uhi))
+            shown.append(_shown(proj, rows, pieces, max_qi, edge_id))
+            counts[edge_id] = np.bincount(pieces[0], minlength=len(edge_id))
+        out = _joined(shown)
+        order = np.lexsort((out["rank"], out["edge"]))
+        out = {k: v[order] for k, v in out.items()}
+        # nodes: welded vertices at the edges' own ends, else a number per piece, after all
+        # the pieces of the edges before its own; the two pieces of a change share a node
+        # (their states differ: a point where two strokes meet, unchained), an end on the
+        # image frame is a node of its own
+        before = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        n = edges.max_node() + 1 + before[out.pop("edge")] + out.pop("rank")
+        va, vb, last = out.pop("va"), out.pop("vb"), out.pop("last")
+        self.node0 = np.where(out.pop("node_a"), va, n)
+        self.node1 = np.where(last, np.where(out.pop("node_b"), vb, -1 - n), n + 1)
+        for key, value in out.items():
+            setattr(self, key, value)
+        if first:
+            # what Dr.Jit keeps of the launches for reuse: the next view's would fit in it, a
+            # one-off extraction's memory is better handed back
+            dr.flush_malloc_cache()
 
     def __len__(self) -> int:
         return len(self.state)
@@ -466,8 +613,10 @@ def extract_strokes(
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
     camera = proj.camera
-    edges = feature_edges(table, proj.origin, crease_angle)
+    edges = view_edges(table, proj.origin, crease_angle)
+    first = edges.first
     strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)
+    del edges
     strokes += outline_strokes(scene, sensor, table, camera, depth_range)
     if raytree_depth:
         strokes += raytree_strokes(scene, sensor, table, camera, raytree_depth)
@@ -479,6 +628,8 @@ def extract_strokes(
         depth_range = cast_depth_range(scene, sensor, table)
     order = {k: i for i, k in enumerate(KINDS)}
     strokes.sort(key=lambda s: (order[s.kind], s.qi, s.through_glass))
+    if first:  # a one-off extraction: its temporaries handed back (see ViewEdges.first)
+        release_freed_memory()
     return Strokes(
         strokes,
         proj.width,

@@ -1,0 +1,113 @@
+"""The strokes' mesh topology: its edges grouped a range of half-edges at a time against one
+pass over them all written here, its size per triangle, and a view's feature edges made a few
+rows at a time against all at once."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mi_npr.scene import object_table
+from mi_npr.strokes import KINDS
+from mi_npr.strokes import edges as E
+
+from .test75_strokes_closed_form import ORIGIN, load
+
+
+def reference_edges(wid: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The welded edges of faces ``f`` from their definition, one half-edge at a time:
+    half-edge ``h`` runs from corner ``h % 3`` of face ``h // 3`` to the next corner (none
+    where both ends weld into one vertex); an edge is a pair of welded ends, its faces those
+    of its half-edges in the order of ``h``; ``flip``: its first two half-edges run the same
+    way."""
+    groups: dict[tuple[int, int], list[tuple[int, bool]]] = {}
+    for h in range(3 * len(f)):
+        a, b = int(wid[f[h // 3, h % 3]]), int(wid[f[h // 3, (h % 3 + 1) % 3]])
+        if a != b:
+            groups.setdefault((min(a, b), max(a, b)), []).append((h // 3, a < b))
+    keys = sorted(groups)
+    first = [groups[k][0] for k in keys]
+    second = [groups[k][1] if len(groups[k]) > 1 else groups[k][0] for k in keys]
+    return (
+        np.array(keys, np.int64).reshape(-1, 2),
+        np.array([min(len(groups[k]), 3) for k in keys]),
+        np.array([g[0] for g in first]),
+        np.array([g[0] for g in second]),
+        np.array([a[1] == b[1] for a, b in zip(first, second, strict=True)], bool),
+    )
+
+
+@pytest.mark.parametrize("half_edges", [5, 1 << 18])
+def test01_edges_grouped_in_ranges_match_one_pass(monkeypatch, half_edges):
+    """Random faces over vertices that weld in pairs and triples, some faces collapsed by the
+    welding, edges of one to many faces: the same edges, counts, faces and flips whether the
+    half-edges are sorted 5 at a time or all at once."""
+    monkeypatch.setattr(E, "HALF_EDGES", half_edges)
+    rng = np.random.default_rng(3)
+    wid = rng.integers(0, 40, 70).astype(np.int32)
+    wid = np.unique(wid, return_inverse=True)[1].astype(np.int32)  # ids 0..K-1
+    f = rng.integers(0, 70, (300, 3)).astype(np.int32)
+    got = E._group_edges(wid, f, int(wid.max()) + 1)
+    want = reference_edges(wid, f)
+    assert (want[1] == 1).any() and (want[1] == 3).any() and len(want[0]) > 50
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)
+
+
+OBJ_GRID = 60  # a 60 x 60 grid of quads: 7200 triangles
+
+
+def grid_obj(path) -> None:
+    """A wavy sheet of OBJ_GRID^2 quads (two triangles each) across the view."""
+    n = OBJ_GRID + 1
+    x, y = np.meshgrid(np.linspace(-2, 2, n), np.linspace(-1.5, 1.5, n))
+    z = 5.0 + 0.2 * np.sin(3 * x) * np.cos(2 * y)
+    v = np.stack([x, y, z], -1).reshape(-1, 3)
+    i = np.arange(n * n).reshape(n, n)[:-1, :-1].ravel()
+    faces = np.concatenate([np.stack([i, i + 1, i + n + 1], 1), np.stack([i, i + n + 1, i + n], 1)])
+    lines = [f"v {a:.6f} {b:.6f} {c:.6f}" for a, b, c in v]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    path.write_text("\n".join(lines) + "\n")
+
+
+SHEET_AND_BOX = (
+    '<shape type="obj" id="sheet"><string name="filename" value="{}"/></shape>'
+    '<shape type="cube" id="box"><transform name="to_world">'
+    '<scale value="0.4"/><translate x="0.3" y="-0.2" z="5"/></transform></shape>'
+)
+
+
+def test02_topology_keeps_about_70_bytes_per_triangle(tmp_path):
+    """What the topology keeps between views: per face its plane (32 bytes) and object (4),
+    per edge (~1.5 a face) its ends, two faces, count and orientation (18), the welded
+    vertices in single precision (~6 a face) and the intersection lines. Under 80 bytes a
+    triangle (a copy of the triangle soup in double precision alone would add ~48)."""
+    grid_obj(tmp_path / "sheet.obj")
+    scene = load(tmp_path, SHEET_AND_BOX.format(tmp_path / "sheet.obj"))
+    E._LAST[0] = None
+    topo = E.topology(object_table(scene))
+    n_faces = len(topo.face_oid)
+    assert n_faces == 2 * OBJ_GRID**2 + 12
+    assert len(topo.crossings[0]) > 0  # the box cuts the sheet
+    arrays = [x for x in vars(topo).values() if isinstance(x, np.ndarray)]
+    arrays += list(topo.crossings)
+    size = sum(x.nbytes for x in arrays)
+    assert size / n_faces < 80, size / n_faces
+
+
+def test03_a_views_rows_made_a_few_at_a_time_are_all_of_them(tmp_path):
+    """ViewEdges.take over slices of 7 rows (across the mesh edges and the intersection
+    lines) gives every field of the rows taken at once, which are the edges of the view."""
+    grid_obj(tmp_path / "sheet.obj")
+    scene = load(tmp_path, SHEET_AND_BOX.format(tmp_path / "sheet.obj"))
+    table = object_table(scene)
+    view = E.view_edges(table, ORIGIN, 134.0)
+    whole = E.feature_edges(table, ORIGIN, 134.0)
+    kinds = {KINDS[k] for k in np.unique(whole.kind)}
+    assert {"silhouette", "border", "intersection"} <= kinds
+    assert len(view) == len(whole) and view.max_node() == whole.max_node()
+    parts = [view.take(slice(c, c + 7)) for c in range(0, len(view), 7)]
+    for key in whole.__dataclass_fields__:
+        joined = np.concatenate([getattr(p, key) for p in parts])
+        np.testing.assert_array_equal(joined, getattr(whole, key), err_msg=key)
+        assert joined.dtype == getattr(whole, key).dtype, key
