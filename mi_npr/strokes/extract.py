@@ -41,9 +41,9 @@ from ..scene import ObjectTable, object_table
 from .chain import chain_order
 from .edges import FeatureEdges, Projector, ViewEdges, release_freed_memory, view_edges
 from .model import KINDS, Stroke, Strokes
-from .outlines import outline_strokes
+from .outlines import ids_and_depths, outline_strokes
 from .raytree import raytree_strokes
-from .visibility import SegmentVisibility, first_opaque_hit, jit_array
+from .visibility import SegmentVisibility
 
 #: Film distance between visibility samples along an edge, in pixels.
 SPACING = 0.5
@@ -489,16 +489,7 @@ def _depth_seen(
     """The depth (N,) of the first opaque surface seen through film positions ``xy`` (N, 2)
     (:func:`~mi_npr.strokes.outlines.probe`'s ``depth``, +inf on a miss), from the hits'
     positions alone."""
-    ray = pixel_rays(
-        sensor,
-        jit_array(mi.Float, xy[:, 0].astype(np.float32)),
-        jit_array(mi.Float, xy[:, 1].astype(np.float32)),
-    )
-    si, _, hit, _ = first_opaque_hit(scene, table, ray, mi.RayFlags.Minimal)
-    dr.eval(si.p, hit)
-    hit_np = np.asarray(hit.numpy(), bool)
-    p = np.stack([np.asarray(c.numpy(), np.float64) for c in (si.p.x, si.p.y, si.p.z)], -1)
-    return np.where(hit_np, (p - camera.origin) @ camera.forward, np.inf)
+    return ids_and_depths(scene, sensor, table, xy, camera)[1]
 
 
 def _add_depth_behind(

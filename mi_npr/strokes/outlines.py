@@ -124,6 +124,22 @@ GROW_ROUNDS = 64
 BRIDGE = 1.5
 
 
+def film_rays(sensor: mi.Sensor, xy: np.ndarray) -> mi.Ray3f:
+    """The pixel rays of ``sensor`` through film positions ``xy`` (N, 2) (pixels)."""
+    x, y = (jit_array(mi.Float, xy[:, k].astype(np.float32)) for k in range(2))
+    return pixel_rays(sensor, x, y)
+
+
+def _hit_depths(
+    si: mi.SurfaceInteraction3f, hit: mi.Bool, camera: Projection
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``hit`` (N,) bool, the hit points (N, 3) and their depths along ``camera``'s view axis
+    (+inf on a miss)."""
+    hit_np = np.asarray(hit.numpy(), bool)
+    p = np.stack([np.asarray(c.numpy(), np.float64) for c in (si.p.x, si.p.y, si.p.z)], -1)
+    return hit_np, p, np.where(hit_np, (p - camera.origin) @ camera.forward, np.inf)
+
+
 def probe(
     scene: mi.Scene,
     sensor: mi.Sensor,
@@ -148,16 +164,10 @@ def probe(
             "cos": z,
             "glass": z.astype(bool),
         }
-    ray = pixel_rays(
-        sensor,
-        jit_array(mi.Float, xy[:, 0].astype(np.float32)),
-        jit_array(mi.Float, xy[:, 1].astype(np.float32)),
-    )
+    ray = film_rays(sensor, xy)
     si, oid, hit, glass = first_opaque_hit(scene, table, ray, stop_at_glass=stop_at_glass)
     cos = dr.abs(dr.dot(si.n, ray.d))
-    hit_np = np.asarray(hit.numpy(), bool)
-    p = np.stack([np.asarray(c.numpy(), np.float64) for c in (si.p.x, si.p.y, si.p.z)], -1)
-    depth = np.where(hit_np, (p - camera.origin) @ camera.forward, np.inf)
+    hit_np, p, depth = _hit_depths(si, hit, camera)
     return {
         "hit": hit_np,
         "object_id": np.asarray(oid.numpy(), np.uint32),
@@ -182,11 +192,7 @@ def object_ids(
     xy = np.asarray(xy, np.float64).reshape(-1, 2)
     if len(xy) == 0:
         return np.zeros(0, np.uint32)
-    ray = pixel_rays(
-        sensor,
-        jit_array(mi.Float, xy[:, 0].astype(np.float32)),
-        jit_array(mi.Float, xy[:, 1].astype(np.float32)),
-    )
+    ray = film_rays(sensor, xy)
     _, oid, _, _ = first_opaque_hit(scene, table, ray, mi.RayFlags.Minimal, stop_at_glass)
     return np.asarray(oid.numpy(), np.uint32)
 
@@ -205,17 +211,10 @@ def ids_and_depths(
     xy = np.asarray(xy, np.float64).reshape(-1, 2)
     if len(xy) == 0:
         return np.zeros(0, np.uint32), np.zeros(0)
-    ray = pixel_rays(
-        sensor,
-        jit_array(mi.Float, xy[:, 0].astype(np.float32)),
-        jit_array(mi.Float, xy[:, 1].astype(np.float32)),
-    )
+    ray = film_rays(sensor, xy)
     si, oid, hit, _ = first_opaque_hit(scene, table, ray, mi.RayFlags.Minimal, stop_at_glass)
     dr.eval(si.p, oid, hit)
-    hit_np = np.asarray(hit.numpy(), bool)
-    p = np.stack([np.asarray(c.numpy(), np.float64) for c in (si.p.x, si.p.y, si.p.z)], -1)
-    depth = np.where(hit_np, (p - camera.origin) @ camera.forward, np.inf)
-    return np.asarray(oid.numpy(), np.uint32), depth
+    return np.asarray(oid.numpy(), np.uint32), _hit_depths(si, hit, camera)[2]
 
 
 def normals_2d(points: np.ndarray, closed: bool) -> np.ndarray:
