@@ -65,7 +65,7 @@ CLIP_BLOCK = 1 << 16
 #: Visibility samples cast in one launch, and the most edges they come from: whole edges
 #: are added to a launch until either is reached (bounds the memory of the samples and the
 #: edges, ~40 and ~120 bytes each, whatever the film's size; each launch traces the ray loop
-#: again, ~15 ms, and the bisections of all the launches wait for one launch after them).
+#: again, so the bisections of all the launches wait for one launch after them).
 SAMPLES = 1 << 19
 EDGE_CHUNK = 1 << 17
 
