@@ -428,8 +428,11 @@ def test16_memory_and_kernels_stay_flat_over_many_jobs(tmp_path):
     finally:
         dr.set_flag(dr.JitFlag.KernelHistory, False)
     assert max(rss[3:]) < 1.1 * rss[3], rss
-    # a few a mesh (its virtual calls), never one a view: 12 views would make 12
-    assert max(new_kernels[3:]) <= 5, new_kernels
+    # A few a mesh, never one a view (12 views would make 12): Mitsuba's vertex normals bake the
+    # vertex count in, and a virtual call's kernel bakes in the registry's id range, which grows
+    # while the scene cache fills (SCENE_CACHE scenes alive) and then only moves as ids are reused.
+    settled = batch.SCENE_CACHE + 1
+    assert max(new_kernels[settled:]) <= 5, new_kernels
     assert len(batch._LAUNCH["views"]) < 12 and len(batch._SCENES) <= batch.SCENE_CACHE
 
 
