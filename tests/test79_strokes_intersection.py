@@ -72,3 +72,57 @@ def test02_a_box_poking_out_of_a_cube_cuts_a_square(tmp_path):
     assert abs(total - perimeter) < 0.05
     # the square's far side is behind the peg: some of it hidden, some visible
     assert {s.qi > 0 for s in cut} == {False, True}
+
+
+def _soup(rng: np.random.Generator, objects: int, per: int) -> tuple[np.ndarray, ...]:
+    """Random triangles in ``objects`` objects, faces of one object contiguous: small ones
+    crowded into a unit cube, a few long or flat ones across it (the grid's hard case), and
+    some that share a plane or a corner with another object's (the tie rules)."""
+    tris, oid = [], []
+    for o in range(objects):
+        centre = rng.uniform(0, 1, 3)
+        t = centre + rng.normal(0, 0.08, (per, 3, 3))
+        t[:2] = rng.uniform(-0.2, 1.2, (2, 3, 3))  # long thin triangles across the cube
+        t[2] = [[-0.1, 0.5, -0.1], [1.1, 0.5, -0.1], [0.5, 0.5, 1.1]]  # a plane y = 0.5
+        t[3] = t[2] + [0.0, 0.0, 0.01]  # coplanar with the one above (and every object's)
+        t[4, 0] = rng.uniform(0, 1, 3) * [1, 0, 1] + [0, 0.5, 0]  # a corner on that plane
+        tris.append(t)
+        oid += [o] * per
+    t = np.concatenate(tris)
+    v = t.reshape(-1, 3)
+    f = np.arange(len(v)).reshape(-1, 3).astype(np.int32)
+    return v, f, np.array(oid, np.int32), t
+
+
+def test03_the_search_finds_what_every_pair_gives():
+    """The grid search (:func:`intersections`) against the pair test on every pair of
+    triangles of different objects: the same segments, on the same faces."""
+    from mi_npr.strokes.intersect import intersections
+
+    rng = np.random.default_rng(7)
+    for objects, per in ((2, 40), (5, 30), (9, 25)):
+        v, f, oid, t = _soup(rng, objects, per)
+        i, j = np.triu_indices(len(f), 1)
+        i, j = i[oid[i] != oid[j]], j[oid[i] != oid[j]]
+        ok, p, q = segments(t[i], t[j])
+        want = {(a, b): (pa, qa) for a, b, pa, qa in zip(i[ok], j[ok], p[ok], q[ok], strict=True)}
+        gp, gq, ga, gb = intersections(v, f, oid)
+        got = {(a, b): (pa, qa) for a, b, pa, qa in zip(ga, gb, gp, gq, strict=True)}
+        assert len(got) == len(ga) == len(want) > 0
+        assert got.keys() == want.keys()
+        for k, (pa, qa) in want.items():
+            np.testing.assert_array_equal(got[k][0], pa)
+            np.testing.assert_array_equal(got[k][1], qa)
+
+
+def test04_no_pair_without_a_crossing():
+    """Objects apart, one object alone, no faces: no segment."""
+    from mi_npr.strokes.intersect import intersections
+
+    rng = np.random.default_rng(3)
+    v, f, oid, _ = _soup(rng, 1, 30)
+    assert len(intersections(v, f, oid)[0]) == 0
+    far = np.concatenate([v, v + 10.0])
+    f2 = np.concatenate([f, f + len(v)])
+    assert len(intersections(far, f2, np.r_[oid, oid + 1])[0]) == 0
+    assert len(intersections(v, f[:0], oid[:0])[0]) == 0

@@ -5,7 +5,9 @@ each that reach into the overlap are hashed into a uniform grid over it (cell si
 triangle size there, at most ``GRID`` cells per axis); triangles sharing a cell, with
 overlapping bounding boxes, are tested. The cost is about ``O(F + P)`` for ``F`` triangles in
 the overlaps and ``P`` candidate pairs (``O(F_a F_b)`` at worst, when all triangles crowd into
-one cell). Self-intersections of one mesh are not looked for.
+one cell). Self-intersections of one mesh are not looked for. The candidates are found on the
+calling thread and tested in blocks of :data:`CHUNK` pairs on :func:`threads` others, meanwhile;
+the segments come in the same order as from one thread.
 
 **One pair** (the plane-clipping form of Moller's test): each triangle's vertices are put on
 either side of the other's plane (a vertex on a plane counts as on its positive side, so a
@@ -20,6 +22,9 @@ welded (as mesh vertices are, :data:`mi_npr.strokes.edges.WELD`) so chaining joi
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 #: Most grid cells per axis over the overlap of two meshes.
@@ -28,42 +33,58 @@ GRID = 64
 CHUNK = 1 << 16
 
 
+def _inside(tlo: np.ndarray, thi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The indices of the boxes (``tlo``, ``thi``: (3, N), an axis a row) that overlap the box
+    (``lo``, ``hi``)."""
+    m = tlo[0] <= hi[0]
+    for k in range(3):
+        if k:
+            m &= tlo[k] <= hi[k]
+        m &= thi[k] >= lo[k]
+    return np.flatnonzero(m)
+
+
 def _candidates(
-    alo: np.ndarray, ahi: np.ndarray, blo: np.ndarray, bhi: np.ndarray
+    alo: np.ndarray,
+    ahi: np.ndarray,
+    blo: np.ndarray,
+    bhi: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Index pairs (i, j) of triangles of two meshes whose bounding boxes (``alo[i]``,
-    ``ahi[i]``) and (``blo[j]``, ``bhi[j]``) overlap, found through a uniform grid (module
-    docstring). A pair is reported by the one cell that holds the larger of its two boxes'
-    lower corners (no pair twice, no sort to remove duplicates)."""
-    lo = np.maximum(alo.min(0), blo.min(0))
-    hi = np.minimum(ahi.max(0), bhi.max(0))
+    """Index pairs (i, j) of triangles of two meshes whose bounding boxes (``alo[:, i]``,
+    ``ahi[:, i]``) and (``blo[:, j]``, ``bhi[:, j]``) overlap ((3, N) arrays, an axis a row),
+    found through a uniform grid over the overlap (``lo``, ``hi``) of the two meshes' boxes
+    (module docstring). A pair is reported by the one cell that holds the larger of its two
+    boxes' lower corners (no pair twice, no sort to remove duplicates); pairs come in the order
+    of ``i``'s cells."""
     none = np.zeros(0, np.int64), np.zeros(0, np.int64)
     if np.any(lo > hi):
         return none
-    ia = np.flatnonzero(np.all((alo <= hi) & (ahi >= lo), axis=1))
-    ib = np.flatnonzero(np.all((blo <= hi) & (bhi >= lo), axis=1))
+    ia, ib = _inside(alo, ahi, lo, hi), _inside(blo, bhi, lo, hi)
     if not len(ia) or not len(ib):
         return none
     extent = float(np.max(hi - lo))
-    sizes = np.concatenate([(ahi[ia] - alo[ia]).max(1), (bhi[ib] - blo[ib]).max(1)])
+    sizes = np.concatenate([(ahi[:, ia] - alo[:, ia]).max(0), (bhi[:, ib] - blo[:, ib]).max(0)])
     h = max(float(np.median(sizes)), extent / GRID, 1e-30)
     cells = np.maximum(1, np.ceil((hi - lo) / h).astype(np.int64))
+    lo_c, top = lo[:, None], (cells - 1)[:, None]
 
-    def cell(x: np.ndarray) -> np.ndarray:
-        return np.clip(np.floor((x - lo) / h).astype(np.int64), 0, cells - 1)
-
-    def flat(c: np.ndarray) -> np.ndarray:
-        return (c[..., 2] * cells[1] + c[..., 1]) * cells[0] + c[..., 0]
+    def flat_cell(x: np.ndarray) -> np.ndarray:  # (3, n) points -> their cells' flat index
+        c = np.clip(np.floor((x - lo_c) / h).astype(np.int64), 0, top)
+        return (c[2] * cells[1] + c[1]) * cells[0] + c[0]
 
     def expand(idx: np.ndarray, tlo: np.ndarray, thi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        c0, c1 = cell(tlo[idx]), cell(thi[idx])
-        span = c1 - c0 + 1
-        count = span.prod(1)
+        c0 = np.clip(np.floor((tlo[:, idx] - lo_c) / h).astype(np.int64), 0, top)
+        span = np.clip(np.floor((thi[:, idx] - lo_c) / h).astype(np.int64), 0, top) - c0 + 1
+        count = span[0] * span[1] * span[2]
         owner = np.repeat(np.arange(len(idx)), count)
         k = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
-        sx, sy = span[owner, 0], span[owner, 1]
-        c = np.stack([k % sx, (k // sx) % sy, k // (sx * sy)], 1) + c0[owner]
-        return idx[owner], flat(c)
+        sx, sy = span[0][owner], span[1][owner]
+        cx = c0[0][owner] + k % sx
+        cy = c0[1][owner] + (k // sx) % sy
+        cz = c0[2][owner] + k // (sx * sy)
+        return idx[owner], (cz * cells[1] + cy) * cells[0] + cx
 
     a_tri, a_key = expand(ia, alo, ahi)
     b_tri, b_key = expand(ib, blo, bhi)
@@ -75,10 +96,11 @@ def _candidates(
     pa = np.repeat(a_tri, n)
     at = np.repeat(a_key, n)
     pb = b_tri[np.repeat(start, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
-    ok = np.all((alo[pa] <= bhi[pb]) & (ahi[pa] >= blo[pb]), axis=1)
-    pa, pb, at = pa[ok], pb[ok], at[ok]
-    home = flat(cell(np.maximum(alo[pa], blo[pb])))
-    keep = home == at
+    for k in range(3):  # the boxes overlap: an axis at a time, on the pairs left
+        ok = alo[k][pa] <= bhi[k][pb]
+        ok &= ahi[k][pa] >= blo[k][pb]
+        pa, pb, at = pa[ok], pb[ok], at[ok]
+    keep = flat_cell(np.maximum(alo[:, pa], blo[:, pb])) == at
     return pa[keep], pb[keep]
 
 
@@ -100,24 +122,40 @@ def _crossing(t: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return p[rows, first], p[rows, second]
 
 
+def _straddles(s: np.ndarray) -> np.ndarray:
+    """Rows of signed distances ``s`` (N, 3) with a vertex on each side (on the plane: the
+    positive side)."""
+    pos, neg = s >= 0, s < 0
+    return (pos[:, 0] | pos[:, 1] | pos[:, 2]) & (neg[:, 0] | neg[:, 1] | neg[:, 2])
+
+
+def _normals(t: np.ndarray) -> np.ndarray:
+    return np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+
+
 def segments(t1: np.ndarray, t2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The intersection of each pair of triangles ``t1[i]``, ``t2[i]`` (N, 3, 3): ``(ok, p,
-    q)``, the segment ``p -> q`` (N, 3) where ``ok`` (module docstring)."""
-    n1 = np.cross(t1[:, 1] - t1[:, 0], t1[:, 2] - t1[:, 0])
-    n2 = np.cross(t2[:, 1] - t2[:, 0], t2[:, 2] - t2[:, 0])
+    q)``, the segment ``p -> q`` (N, 3) where ``ok`` (module docstring). The tests run in
+    turn on the pairs the earlier ones left (``t2`` across ``t1``'s plane, then ``t1`` across
+    ``t2``'s), each with the same arithmetic as on all pairs."""
+    n = len(t1)
+    ok = np.zeros(n, bool)
+    p = np.zeros((n, 3))
+    q = np.zeros((n, 3))
+    n1 = _normals(t1)
     s2 = np.einsum("nij,nj->ni", t2 - t1[:, :1], n1)  # t2's vertices against t1's plane
+    i = np.flatnonzero(_straddles(s2))
+    t1, t2, n1, s2 = t1[i], t2[i], n1[i], s2[i]
+    n2 = _normals(t2)
     s1 = np.einsum("nij,nj->ni", t1 - t2[:, :1], n2)
-    straddle = lambda s: np.any(s >= 0, 1) & np.any(s < 0, 1)  # noqa: E731
     line = np.cross(n1, n2)
-    ok = straddle(s1) & straddle(s2) & (np.linalg.norm(line, axis=1) > 0)
-    p = np.zeros((len(t1), 3))
-    q = np.zeros((len(t1), 3))
-    if not ok.any():
+    keep = _straddles(s1) & (np.linalg.norm(line, axis=1) > 0)
+    i, t1, t2, s1, s2, line = i[keep], t1[keep], t2[keep], s1[keep], s2[keep], line[keep]
+    if not len(i):
         return ok, p, q
-    i = np.flatnonzero(ok)
-    a0, a1 = _crossing(t1[i], s1[i])
-    b0, b1 = _crossing(t2[i], s2[i])
-    L = line[i]
+    a0, a1 = _crossing(t1, s1)
+    b0, b1 = _crossing(t2, s2)
+    L = line
     ta0, ta1 = np.einsum("ij,ij->i", a0, L), np.einsum("ij,ij->i", a1, L)
     tb0, tb1 = np.einsum("ij,ij->i", b0, L), np.einsum("ij,ij->i", b1, L)
     swap_a, swap_b = ta1 < ta0, tb1 < tb0
@@ -129,22 +167,36 @@ def segments(t1: np.ndarray, t2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     tb_lo, tb_hi = np.minimum(tb0, tb1), np.maximum(tb0, tb1)
     lo = np.where((ta_lo >= tb_lo)[:, None], alo, blo)
     hi = np.where((ta_hi <= tb_hi)[:, None], ahi, bhi)
-    good = np.minimum(ta_hi, tb_hi) > np.maximum(ta_lo, tb_lo)
-    ok[i] = good
+    ok[i] = np.minimum(ta_hi, tb_hi) > np.maximum(ta_lo, tb_lo)
     p[i], q[i] = lo, hi
     return ok, p, q
 
 
 def _boxes(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each triangle's bounding box (F, 3) in single precision, rounded outwards (so it holds
-    the double-precision box), a block of faces at a time (bounded temporaries)."""
-    lo = np.empty((len(f), 3), np.float32)
-    hi = np.empty((len(f), 3), np.float32)
-    for c in range(0, len(f), CHUNK):
-        t = v[f[c : c + CHUNK]]  # (n, 3 corners, 3)
-        lo[c : c + CHUNK] = np.nextafter(t.min(1).astype(np.float32), np.float32(-np.inf))
-        hi[c : c + CHUNK] = np.nextafter(t.max(1).astype(np.float32), np.float32(np.inf))
+    """Each triangle's bounding box (3, F), an axis a row, in single precision, rounded
+    outwards (so it holds the double-precision box), a block of faces at a time (bounded
+    temporaries)."""
+    lo = np.empty((3, len(f)), np.float32)
+    hi = np.empty((3, len(f)), np.float32)
+    down, up = np.float32(-np.inf), np.float32(np.inf)
+    for k in range(3):
+        x = np.ascontiguousarray(v[:, k])
+        for c in range(0, len(f), 4 * CHUNK):
+            fc = f[c : c + 4 * CHUNK]
+            a, b, d = x[fc[:, 0]], x[fc[:, 1]], x[fc[:, 2]]
+            m = np.minimum(np.minimum(a, b), d)
+            lo[k, c : c + len(fc)] = np.nextafter(m.astype(np.float32), down)
+            np.maximum(np.maximum(a, b), d, out=m)
+            hi[k, c : c + len(fc)] = np.nextafter(m.astype(np.float32), up)
     return lo, hi
+
+
+def threads() -> int:
+    """Threads for numpy work that releases the GIL: the cores this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
 
 
 def intersections(
@@ -161,8 +213,8 @@ def intersections(
     tlo, thi = _boxes(v, f)
     head = np.flatnonzero(np.append(True, face_oid[1:] != face_oid[:-1]))
     stop = np.append(head[1:], len(f))
-    olo = np.minimum.reduceat(tlo, head)
-    ohi = np.maximum.reduceat(thi, head)
+    olo = np.minimum.reduceat(tlo, head, axis=1).T
+    ohi = np.maximum.reduceat(thi, head, axis=1).T
     # every pair of objects whose boxes overlap, the first of the pair earlier in ``f``
     pairs = []
     for r in range(0, len(head), 1024):  # rows of the object-by-object test, memory bound
@@ -171,17 +223,30 @@ def intersections(
         i, j = np.nonzero(meet)
         pairs.append(np.stack([i + r, j], 1)[i + r < j])
     ka, kb = np.concatenate(pairs).T
-    ps, qs, fas, fbs = [], [], [], []
-    for oa, ob in zip(ka.tolist(), kb.tolist(), strict=True):
-        sa, sb = slice(head[oa], stop[oa]), slice(head[ob], stop[ob])
-        pa, pb = _candidates(tlo[sa], thi[sa], tlo[sb], thi[sb])
-        for c in range(0, len(pa), CHUNK):
-            fa, fb = pa[c : c + CHUNK] + head[oa], pb[c : c + CHUNK] + head[ob]
-            ok, p, q = segments(v[f[fa]], v[f[fb]])
-            ps.append(p[ok])
-            qs.append(q[ok])
-            fas.append(fa[ok])
-            fbs.append(fb[ok])
-    if not ps:
+
+    def blocks():  # the candidate pairs, gathered into blocks of about CHUNK pairs
+        held, count = [], 0
+        for oa, ob in zip(ka.tolist(), kb.tolist(), strict=True):
+            sa, sb = slice(head[oa], stop[oa]), slice(head[ob], stop[ob])
+            lo, hi = np.maximum(olo[oa], olo[ob]), np.minimum(ohi[oa], ohi[ob])
+            pa, pb = _candidates(tlo[:, sa], thi[:, sa], tlo[:, sb], thi[:, sb], lo, hi)
+            held.append((pa + head[oa], pb + head[ob]))
+            count += len(pa)
+            if count >= CHUNK:
+                yield np.concatenate([a for a, _ in held]), np.concatenate([b for _, b in held])
+                held, count = [], 0
+        if count:
+            yield np.concatenate([a for a, _ in held]), np.concatenate([b for _, b in held])
+
+    def test(fa: np.ndarray, fb: np.ndarray) -> tuple[np.ndarray, ...]:
+        ok, p, q = segments(v[f[fa]], v[f[fb]])
+        return p[ok], q[ok], fa[ok], fb[ok]
+
+    # this thread finds the candidates (many small numpy calls, which hold the GIL) while the
+    # pool tests them in large blocks (long numpy loops, which let go of it); results in order
+    with ThreadPoolExecutor(threads()) as pool:
+        found = [job.result() for job in [pool.submit(test, *b) for b in blocks()]]
+    found = [r for r in found if len(r[0])]
+    if not found:
         return empty
-    return np.concatenate(ps), np.concatenate(qs), np.concatenate(fas), np.concatenate(fbs)
+    return tuple(np.concatenate(x) for x in zip(*found, strict=True))  # type: ignore[return-value]
