@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import ctypes
 import math
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import drjit as dr
@@ -320,11 +319,10 @@ class Topology:
         first_face = np.zeros(int(face_oid.max()) + 1, np.int64)
         first_face[face_oid[heads]] = heads
         size = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
-        # the vertices welded on a thread of their own while the intersections are searched
-        with ThreadPoolExecutor(1) as pool:
-            welding = pool.submit(weld, v, WELD * size)
-            p, q, fa, fb = intersections(v, f, face_oid)
-            wid = welding.result().astype(np.int32)
+        # one after the other, not side by side: the two searches' temporaries would add up
+        p, q, fa, fb = intersections(v, f, face_oid)
+        release_freed_memory()
+        wid = weld(v, WELD * size).astype(np.int32)
         release_freed_memory()
         n_welded = int(wid.max()) + 1
         # the crossings' ends welded into nodes of their own, numbered after the vertices

@@ -30,7 +30,7 @@ import numpy as np
 #: Most grid cells per axis over the overlap of two meshes.
 GRID = 64
 #: Candidate pairs tested at once (memory bound).
-CHUNK = 1 << 16
+CHUNK = 1 << 15
 
 
 def _inside(tlo: np.ndarray, thi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -244,8 +244,13 @@ def intersections(
 
     # this thread finds the candidates (many small numpy calls, which hold the GIL) while the
     # pool tests them in large blocks (long numpy loops, which let go of it); results in order
+    found, jobs = [], []
     with ThreadPoolExecutor(threads()) as pool:
-        found = [job.result() for job in [pool.submit(test, *b) for b in blocks()]]
+        for b in blocks():
+            jobs.append(pool.submit(test, *b))
+            while len(jobs) > 2 * threads():  # a few blocks waiting at most (memory)
+                found.append(jobs.pop(0).result())
+        found += [job.result() for job in jobs]
     found = [r for r in found if len(r[0])]
     if not found:
         return empty
