@@ -30,7 +30,7 @@ import numpy as np
 #: Most grid cells per axis over the overlap of two meshes.
 GRID = 64
 #: Candidate pairs tested at once (memory bound).
-CHUNK = 1 << 15
+CHUNK = 1 << 14
 
 
 def _inside(tlo: np.ndarray, thi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
