@@ -62,11 +62,14 @@ other stages run at the supersampled resolution, in sub-pixels:
   ``dilation_size / n`` film pixels: it fills the same geometric holes as at ``n = 1`` only
   up to that size; raise ``dilation_size`` with ``n`` to fill wider ones;
 - ``max_density`` measures ink over a 9x9 window of sub-pixels; ``bright_fade`` is applied after
-  the filter, from the film-resolution beauty.
+  the filter, from the film-resolution beauty;
+- the depths are normalised over the film's range (``near`` and ``far`` unset), not the
+  sub-pixels': the gray levels of eq. 5.1 do not change with ``n``.
 
-``antialiased_lines(..., n)`` equals ``full_ink_filter(lines(G, line_width=aa_width(w, n)), n)``
-(times ``w`` below 1 px) with ``G`` the pixel-centre G-buffer of the same camera on a film ``n``
-times larger (bit for bit where the sub-pixel positions are exact in float32, e.g. ``n`` a power
+``antialiased_lines(..., n)`` equals ``full_ink_filter(lines(G, line_width=aa_width(w, n),
+depth_range=R), n)`` (times ``w`` below 1 px) with ``G`` the pixel-centre G-buffer of the same
+camera on a film ``n`` times larger and ``R`` the film's own depth range (its pixel centres', as
+at ``n = 1``) (bit for bit where the sub-pixel positions are exact in float32, e.g. ``n`` a power
 of two).
 """
 
@@ -286,12 +289,16 @@ def antialiased_lines(
     replaces the object ids that ID edges and creases read: another id mode, unselected
     objects as background.
 
+    The frame's depth range (what ``near`` and ``far`` default to) is the film's: that of
+    ``gb``'s pixel centres, as at ``n = 1``, so supersampling smooths the lines without moving
+    eq. 5.1's normalisation (a sub-pixel ray may meet a surface nearer or farther than every
+    pixel centre does).
+
     Memory: where the supersampled film has more than ``strip_samples`` sub-pixels, it is
     traced and drawn in strips of film rows (:func:`strips`), each with a halo of the rows the
     chain reads (:func:`chain_reach`, plus the sub-pixel row whose seams the strip cannot close
-    and the film row of :func:`full_ink_filter`'s cross-section), after a first pass over the
-    strips for the frame's depth range (unless ``near`` and ``far`` are given): the same lines
-    as the whole film at once, at most about ``strip_samples`` sub-pixels held at a time."""
+    and the film row of :func:`full_ink_filter`'s cross-section): the same lines as the whole
+    film at once, at most about ``strip_samples`` sub-pixels held at a time, each traced once."""
     problem = aa_factor(n)
     if problem:
         raise ParameterError(f"line_aa = {n!r}: {problem}")
@@ -317,18 +324,10 @@ def antialiased_lines(
     halo = math.ceil((chain_reach(sub) + 1) / n) + 1
     core = max(1, strip_samples // (w * n * n) - 2 * halo)
     parts = strips(h, core, halo)
+    frame = finite_range(gb[L.Z].array)  # the film's depth range, whatever n (docstring)
     if len(parts) == 1:
-        ink = full_ink_filter(lines(strip_gbuffer(None), **sub), n)
+        ink = full_ink_filter(lines(strip_gbuffer(None), depth_range=frame, **sub), n)
     else:
-        frame = None
-        if params.get("near") is None or params.get("far") is None:
-            lo, hi = mi.Float(dr.inf), mi.Float(-dr.inf)
-            for r0, r1, s0, s1 in parts:  # the cores cover the film once
-                z = strip_gbuffer((s0, s1))[L.Z].array
-                a, b = finite_range(_rows(z, (r0 - s0) * n, (r1 - r0) * n, w * n))
-                lo, hi = dr.minimum(lo, a), dr.maximum(hi, b)
-                dr.eval(lo, hi)
-            frame = (lo, hi)
         out = dr.zeros(mi.Float, h * w)
         for r0, r1, s0, s1 in parts:
             part = full_ink_filter(lines(strip_gbuffer((s0, s1)), depth_range=frame, **sub), n)

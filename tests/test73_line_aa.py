@@ -4,6 +4,7 @@ same camera rendered on a film N times larger, normalised by each line's coverag
 
 from __future__ import annotations
 
+import mitsuba as mi
 import numpy as np
 import pytest
 
@@ -82,6 +83,13 @@ def test01_box_filter_matches_reference():
         box_filter(a, 4)
 
 
+def _film_range(gb):
+    """The film's nearest and farthest finite depth, as 1-lane arrays (``depth_range``)."""
+    z = gb.numpy(L.Z)
+    z = z[np.isfinite(z)]
+    return mi.Float(float(z.min())), mi.Float(float(z.max()))
+
+
 @pytest.mark.parametrize("n", [2, 4])
 @pytest.mark.parametrize("params", [{}, {"line_width": 1.5, "t": 0.5}])
 def test02_supersampled_equals_box_filtered_large_film(tmp_path, n, params):
@@ -97,7 +105,9 @@ def test02_supersampled_equals_box_filtered_large_film(tmp_path, n, params):
     for name in (L.Z, L.OBJECT_ID, *L.N):
         np.testing.assert_array_equal(sup.numpy(name), big.numpy(name), err_msg=name)
     width = params.get("line_width", 1.0)
-    expected = ref_full_ink(np.asarray(K.lines(big, **{**params, "line_width": width * n})), n)
+    frame = _film_range(gb)  # the depths normalised over the film's range, not the big one's
+    big_lines = K.lines(big, depth_range=frame, **{**params, "line_width": width * n})
+    expected = ref_full_ink(np.asarray(big_lines), n)
     got = np.asarray(antialiased_lines(scene, sensor, gb, n, **params))
     assert got.shape == (h, w) and got.dtype == np.float32
     np.testing.assert_allclose(got, expected, atol=1e-6)
@@ -110,8 +120,10 @@ def test03_three_by_three_matches_up_to_rounding(tmp_path):
     w, h, n = 24, 16, 3
     scene = _scene(tmp_path, w, h)
     big = mi_npr.render(_scene(tmp_path, w * n, h * n))
-    expected = ref_full_ink(np.asarray(K.lines(big, line_width=float(n))), n)
-    got = antialiased_lines(scene, scene.sensors()[0], mi_npr.render(scene), n)
+    gb = mi_npr.render(scene)
+    lines = K.lines(big, line_width=float(n), depth_range=_film_range(gb))
+    expected = ref_full_ink(np.asarray(lines), n)
+    got = antialiased_lines(scene, scene.sensors()[0], gb, n)
     assert np.mean(np.abs(got - expected) > 1e-6) < 0.02
 
 
