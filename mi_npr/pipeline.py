@@ -243,7 +243,8 @@ def lines_as_strokes(
     ``crease_angle``): the visible ones (``qi == 0``, those seen through glass too) of
     :func:`line_kinds`, of the objects that ``only`` and ``ignore`` select (a stroke's object:
     that of its first vertex). The strokes of ``drawn`` (the ``strokes`` drawing of the same
-    render) are reused when they were extracted at the same crease angle, or creases are off.
+    render) are reused when they were extracted at the same crease angle, or creases are off;
+    extracted here, they carry no ``depth_behind`` (the layer's style never reads it).
     **How**: ``line_width`` px wide, in ``line_color``, opaque: the ID edges and creases of the
     lines are drawn at full strength, and an outline always has a depth step or an ID change, so
     an opaque stroke is what the PNG shows, except where eq. 5.1 fades a depth step too small for
@@ -267,6 +268,7 @@ def lines_as_strokes(
                 crease_angle=crease,
                 max_qi=0,  # the visible strokes alone: no ray past the first surface
                 depth_range=depth_range_of(z) if z is not None else None,
+                depth_behind=False,  # the layer's style has no gray: never read
             )
         except ParameterError:  # a camera the strokes refuse: every line pixel is traced
             strokes = Strokes([], gb.width, gb.height, dict(session.objects.names))

@@ -126,3 +126,17 @@ def test04_no_pair_without_a_crossing():
     f2 = np.concatenate([f, f + len(v)])
     assert len(intersections(far, f2, np.r_[oid, oid + 1])[0]) == 0
     assert len(intersections(v, f[:0], oid[:0])[0]) == 0
+
+
+def test05_without_depth_behind_the_same_strokes(tmp_path):
+    """``depth_behind=False`` (the lines drawing's strokes) skips only the rays beside each
+    vertex: the same strokes, with ``depth_behind`` left unset."""
+    scene = load(tmp_path, BOXES)
+    sensor = scene.sensors()[0]
+    full = extract_strokes(scene, sensor)
+    lean = extract_strokes(scene, sensor, depth_behind=False)
+    assert len(full) == len(lean) > 4
+    for a, b in zip(full, lean, strict=True):
+        assert (a.kind, a.qi, a.closed) == (b.kind, b.qi, b.closed)
+        np.testing.assert_array_equal(a.points, b.points)
+        assert a.depth_behind is not None and b.depth_behind is None

@@ -580,6 +580,7 @@ def extract_strokes(
     objects: Mapping[int, str] | None = None,
     params: Mapping[str, Any] | None = None,
     resample: float | None = None,
+    depth_behind: bool = True,
 ) -> Strokes:
     """Every stroke of ``scene`` seen by ``sensor`` (module docstring). ``table``: the scene's
     object table (built if not given); ``depth_range``: the frame's nearest and farthest finite
@@ -590,7 +591,9 @@ def extract_strokes(
     visibility rays stop counting there, which is what makes hidden lines affordable on a
     large model, where most edges lie deep inside it); ``raytree_depth``: levels of the ray
     trees whose reflection, refraction and shadow lines are added (:mod:`~mi_npr.strokes.raytree`;
-    0: none; the hard-shadow lights). Parameters as in :data:`EXTRACT_PARAMS`."""
+    0: none; the hard-shadow lights); ``depth_behind``: sample each vertex's
+    ``Stroke.depth_behind`` (two rays a vertex; ``False`` leaves it ``None``, for a use that
+    never reads it, such as a style without ``gray``). Parameters as in :data:`EXTRACT_PARAMS`."""
     crease_angle = _arg("crease_angle", crease_angle)
     chain_angle = _arg("chain_angle", chain_angle)
     max_qi = _arg("max_qi", max_qi)
@@ -614,7 +617,8 @@ def extract_strokes(
     strokes = [s for s in strokes if len(s) >= 2]
     if resample:
         strokes = resampled_all(strokes, resample)
-    _add_depth_behind(scene, sensor, table, strokes, camera)
+    if depth_behind:
+        _add_depth_behind(scene, sensor, table, strokes, camera)
     if depth_range is None:
         depth_range = cast_depth_range(scene, sensor, table)
     order = {k: i for i, k in enumerate(KINDS)}
