@@ -7,6 +7,7 @@ drawn twice, and the ``lines`` drawing's eq. 5.1 (its ink image) for which depth
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -256,3 +257,51 @@ def test05_a_rim_seen_at_a_fine_resolution_is_one_stroke(tmp_path):
     ends = np.concatenate([s.points[[0, -1]] for s in front if s.kind == "silhouette"])
     for p in rim.points[[0, -1]]:
         assert np.hypot(*(ends - p).T).min() < 1e-9
+
+
+@pytest.mark.parametrize("size", [(960, 720), (1280, 960)])
+def test06_a_cylinders_sides_are_one_stroke_each(tmp_path, size):
+    """Rays grazing a cylinder's side flip between hit and miss within a band that, in pixels,
+    widens with the resolution: the vertices there are probed again farther out, so each side
+    is one silhouette along the whole tube, on the projected tangent line (the vertical
+    generator whose normal is perpendicular to the view ray)."""
+    import mi_npr
+    from mi_npr.strokes.edges import Projector
+
+    from .helpers import scene_xml
+
+    path = tmp_path / "tube.xml"
+    body = (
+        '<shape type="cylinder" id="tube"><point name="p0" value="0, 0, 0"/>'
+        '<point name="p1" value="0, 1, 0"/><float name="radius" value="0.5"/></shape>'
+    )
+    eye = np.array([0.3, 3.0, -5.2])
+    kw = dict(width=size[0], height=size[1], fov=30.0, origin="0.3, 3.0, -5.2", target="0, 0.5, 0")
+    path.write_text(scene_xml(body, **kw))
+    scene = mi_npr.load_scene(path)
+    sensor = scene.sensors()[0]
+    st = extract_strokes(scene, sensor)
+    # the tangent generators: x^2 + z^2 = r^2 with (p - eye) . p = 0 in the xz plane
+    d, r = math.hypot(eye[0], eye[2]), 0.5
+    base, spread = math.atan2(eye[2], eye[0]), math.acos(r / d)
+    proj = Projector(sensor)
+    sides = []
+    for phi in (base - spread, base + spread):
+        ends = np.array([[r * math.cos(phi), y, r * math.sin(phi)] for y in (0.0, 1.0)])
+        sides.append(proj.film(ends)[0])
+    long = [s for s in st if s.kind == "silhouette" and s.length() > 0.2 * size[1]]
+    assert len(long) == 2
+    for s, side in zip(
+        sorted(long, key=lambda s: s.points[:, 0].mean()),
+        sorted(sides, key=lambda a: a[:, 0].mean()),
+        strict=True,
+    ):
+        top, bottom = side[:, 1].min(), side[:, 1].max()
+        # it runs on round the rims' ends, where their inner walls graze: beyond the side
+        assert s.points[:, 1].min() < top + 1.0 and s.points[:, 1].max() > bottom - 1.0
+        t = np.linspace(0.0, 1.0, 64)[:, None]
+        dense = np.concatenate([a + t * (b - a) for a, b in itertools.pairwise(s.points)])
+        along = dense[(dense[:, 1] > top + 5.0) & (dense[:, 1] < bottom - 5.0)]
+        assert len(along) > 32
+        err = seg_distance(along, side[:1], side[1:]).max()
+        assert err < 0.05, err

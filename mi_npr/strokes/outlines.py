@@ -60,7 +60,11 @@ pixel of it, no crack crosses it, and it is not drawn: a tube's rim ends a few p
 the point where it touches the side outline (tangentially), within a pixel of that outline.
 
 **Kinds.** Each vertex is then *probed*: two rays at ``PROBE`` px (``STEP_PROBE`` px for a
-self-occlusion outline) on either side of the outline, across its local tangent. The *inside*
+self-occlusion outline) on either side of the outline, across its local tangent; where both
+rays of an id outline's vertex see its object, or neither does (rays grazing a limb flip
+between hit and miss within a band that widens, in pixels, with the resolution: an open
+cylinder's side at 1280 x 960), the two are cast again at each of ``WIDER`` px in turn until
+one side sees it and the other does not. The *inside*
 is the side that sees ``k`` (of an id outline), or the nearer side (of a self-occlusion
 outline: it must see ``k``); its hit gives the vertex's 3-D position, depth and primitive. A
 vertex is on ``k``'s own outline (and kept) when the outside sees nothing or a surface
@@ -116,6 +120,9 @@ RISE = 1e-3
 #: rounding of the intersections at a rim seen at a grazing angle (their hits flip between
 #: the two sides within about 2e-3 px of an open cylinder's rim at 960 x 720).
 STEP_PROBE = 0.02
+#: Wider side probes of an id outline's vertex whose probes at ``PROBE`` px both see its
+#: object or neither do (rays grazing a limb flip between hit and miss there), tried in turn.
+WIDER = (0.02, 0.2)
 #: Self-occlusion outlines are followed on from their ends this far (px) a round...
 GROW = 8
 #: ...for at most this many rounds.
@@ -347,6 +354,24 @@ def _outlines(
     ]
     a = probe(scene, sensor, table, pts + nrm, camera, glass)
     b = probe(scene, sensor, table, pts - nrm, camera, glass)
+    # an id outline's vertex whose two probes do not tell its object from the rest lies in
+    # the band where grazing rays flip: probed again farther out (module docstring)
+    k = np.repeat([p.object_id for p in every], [len(p) for p in every]).astype(np.uint32)
+    n_id = sum(len(p) for p in paths)
+    for wider in WIDER:
+        sees = [x["hit"] & (x["object_id"] == k) for x in (a, b)]
+        again = np.flatnonzero(sees[0][:n_id] == sees[1][:n_id])
+        if not len(again):
+            break
+        step = nrm[again] * (wider / PROBE)
+        a2 = probe(scene, sensor, table, pts[again] + step, camera, glass)
+        b2 = probe(scene, sensor, table, pts[again] - step, camera, glass)
+        told = (a2["hit"] & (a2["object_id"] == k[again])) != (
+            b2["hit"] & (b2["object_id"] == k[again])
+        )
+        for x, x2 in ((a, a2), (b, b2)):
+            for key in x:
+                x[key][again[told]] = x2[key][told]
     out: list[Stroke] = []
     start = 0
     for i, path in enumerate(every):
