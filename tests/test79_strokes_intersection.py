@@ -9,6 +9,8 @@ placed by Mitsuba's own transform and projected with test75's pinhole model.
 
 from __future__ import annotations
 
+import math
+
 import mitsuba as mi
 import numpy as np
 
@@ -140,3 +142,83 @@ def test05_without_depth_behind_the_same_strokes(tmp_path):
         assert (a.kind, a.qi, a.closed) == (b.kind, b.qi, b.closed)
         np.testing.assert_array_equal(a.points, b.points)
         assert a.depth_behind is not None and b.depth_behind is None
+
+
+def _circle(centre: np.ndarray, normal: np.ndarray, r: float, n: int = 20000) -> np.ndarray:
+    normal = normal / np.linalg.norm(normal)
+    e1 = np.cross(normal, [0.0, 0.0, 1.0] if abs(normal[2]) < 0.9 else [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+    t = np.linspace(0, 2 * np.pi, n)[:, None]
+    return centre + r * (np.cos(t) * e1 + np.sin(t) * e2)
+
+
+def _inner(strokes, field: str) -> np.ndarray:
+    """``field`` of the strokes' vertices but the ends of open ones: where a stroke meets an
+    outline of another kind it ends on that outline's first vertex (no gap between them)."""
+    return np.concatenate(
+        [getattr(s, field)[slice(None) if s.closed else slice(1, -1)] for s in strokes]
+    )
+
+
+def _on_curve(strokes, curve_px: np.ndarray) -> tuple[float, float]:
+    """The largest film distance (px) to a densely sampled curve of the strokes' inner
+    vertices, and of their ends."""
+    ends = np.concatenate([s.points[[0, -1]] for s in strokes])
+    inner = _inner(strokes, "points")
+    far = [float(seg_distance(x, curve_px[:-1], curve_px[1:]).max()) for x in (inner, ends)]
+    return far[0], far[1]
+
+
+def test06_two_spheres_cut_along_their_circle_drawn_once(tmp_path):
+    """Shapes that are not meshes meet along an intersection stroke too (from their outlines:
+    the two sides at one depth), on the analytic circle of the two spheres, drawn once (by
+    the smaller object id's outline)."""
+    a, ra = np.array([-0.4, 0.0, 5.0]), 0.8
+    b, rb = np.array([0.5, 0.1, 5.2]), 0.7
+    body = "".join(
+        f'<shape type="sphere" id="{name}"><point name="center" value="{", ".join(map(str, c))}"/>'
+        f'<float name="radius" value="{r}"/></shape>'
+        for name, c, r in (("a", a, ra), ("b", b, rb))
+    )
+    scene = load(tmp_path, body)
+    cut = extract_strokes(scene, scene.sensors()[0]).of_kind("intersection")
+    assert cut and len({int(s.object_id[0]) for s in cut}) == 1  # drawn once
+    p = _inner(cut, "position")
+    assert len(p) >= 4
+    np.testing.assert_allclose(np.linalg.norm(p - a, axis=1), ra, atol=2e-3)
+    np.testing.assert_allclose(np.linalg.norm(p - b, axis=1), rb, atol=2e-3)
+    # the circle: in the plane 2 p.(b - a) = ra^2 - rb^2 + |b|^2 - |a|^2, about the line a-b
+    d = np.linalg.norm(b - a)
+    x = (d * d + ra * ra - rb * rb) / (2 * d)
+    ring = project(_circle(a + x * (b - a) / d, b - a, math.sqrt(ra * ra - x * x)))
+    inner, ends = _on_curve(cut, ring)
+    assert inner < 0.05 and ends < 1.0
+    assert sum(s.length() for s in cut) > 10.0
+
+
+def test07_a_sphere_sunk_into_a_mesh_cuts_its_top_face(tmp_path):
+    """A sphere (not a mesh) half sunk into a box (a mesh): the intersection stroke lies on
+    the circle where the box's top plane cuts the sphere."""
+    c, r, top = np.array([0.0, 0.0, 5.0]), 0.8, -0.4
+    body = (
+        '<shape type="sphere"><point name="center" value="0, 0, 5"/>'
+        f'<float name="radius" value="{r}"/></shape>'
+        '<shape type="cube" id="box"><transform name="to_world"><scale x="2" y="0.5" z="2"/>'
+        f'<translate y="{top - 0.5}" z="5"/></transform></shape>'
+    )
+    scene = load(tmp_path, body)
+    cut = extract_strokes(scene, scene.sensors()[0]).of_kind("intersection")
+    assert cut
+    p = _inner(cut, "position")
+    assert len(p) >= 4
+    np.testing.assert_allclose(p[:, 1], top, atol=2e-3)
+    np.testing.assert_allclose(np.linalg.norm(p - c, axis=1), r, atol=2e-3)
+    ring = project(
+        _circle(
+            c + np.array([0.0, top, 0.0]), np.array([0.0, 1.0, 0.0]), math.sqrt(r * r - top * top)
+        )
+    )
+    inner, ends = _on_curve(cut, ring)
+    assert inner < 0.05 and ends < 1.0
+    assert sum(s.length() for s in cut) > 20.0

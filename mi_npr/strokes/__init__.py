@@ -17,11 +17,13 @@ object space, exact, and the image is used for what object space lacks.
    cracks with rays; a shape's outlines in front of itself (the rim of an open cylinder before
    its inner wall: one id on both sides) start from the ``lines`` drawing's depth steps within
    one id, bisected by depth and followed on while they stay steps; then side probes keep the
-   vertices on the shape's own outline, typed ``silhouette`` (surface seen edge-on) or
-   ``border`` (a rim in front of what lies behind).
+   vertices on the shape's own outline, typed ``silhouette`` (surface seen edge-on),
+   ``border`` (a rim in front of what lies behind) or ``intersection`` (the object on the other
+   side at the same depth: the shape meets a mesh or another such shape there).
    **Nothing is drawn twice**: in that id image every mesh reads as background, so a mesh's
    outline comes from its object-space silhouette and border edges only, and another shape's
-   only from its image-space outline; an outline between two shapes belongs to the nearer one.
+   only from its image-space outline; an outline between two shapes belongs to the nearer one,
+   and their intersection to the one of smaller object id.
 3. *Exact visibility* (:mod:`~mi_npr.strokes.visibility`): quantitative invisibility by rays
    from the camera origin to points sampled every 0.5 px along each edge, which is split where
    it changes (bisection, 1e-4 px). QI counts every surface crossed in front of the point (a

@@ -79,12 +79,15 @@ are silhouettes. Being seen edge-on is not enough to keep a vertex: where an out
 nearer object's, the vertices within a pixel of the meeting point lie near the limb but on the
 nearer object's outline.
 
-Otherwise the object is cut by something in front (its outline there is the other object's) or
-meets another object at equal depth (an intersection, not drawn for these shapes yet). Runs of
-kept vertices of one kind and one glass state are the strokes (a whole kept cycle: a closed
-stroke), simplified by Douglas-Peucker at ``TOLERANCE`` px (kept vertices stay on the outline).
-These strokes are visible by construction: ``qi = 0``; the hidden part of such an outline is
-not drawn.
+A vertex whose outside probe sees another object at the inside's depth (within ``RISE``) is
+on an **intersection**: the object meets that one there (a sphere sunk into a floor, two
+spheres through each other). It is drawn from the outline of the smaller object id when both
+have outlines here (both are not meshes), so once; mesh-mesh intersections come from
+:mod:`~mi_npr.strokes.intersect`. Otherwise the object is cut by something in front (its
+outline there is the other object's) and the vertex is dropped. Runs of kept vertices of one
+kind and one glass state are the strokes (a whole kept cycle: a closed stroke), simplified by
+Douglas-Peucker at ``TOLERANCE`` px (kept vertices stay on the outline). These strokes are
+visible by construction: ``qi = 0``; the hidden part of such an outline is not drawn.
 """
 
 from __future__ import annotations
@@ -379,8 +382,11 @@ def _outlines(
         sl = slice(start, start + n)
         start += n
         sides = {k: v[sl] for k, v in a.items()}, {k: v[sl] for k, v in b.items()}
-        state_of = _id_outline_state if i < len(paths) else _depth_step_state
-        out += _path_strokes(path, *state_of(path.object_id, *sides))
+        if i < len(paths):
+            state, inside = _id_outline_state(path.object_id, *sides, lut)
+        else:
+            state, inside = _depth_step_state(path.object_id, *sides)
+        out += _path_strokes(path, state, inside)
     return out
 
 
@@ -632,15 +638,24 @@ def _sides(
     return inside, outside
 
 
-def _id_outline_state(k: int, a: dict, b: dict) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def _id_outline_state(
+    k: int, a: dict, b: dict, lut: np.ndarray
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Per vertex of an id outline of object ``k``: its state (-1 dropped, else kind (0
-    silhouette, 1 border) + 2 * glass) and the inside probe (module docstring)."""
+    silhouette, 1 border, 2 intersection) + 3 * glass) and the inside probe (module
+    docstring). ``lut``: :func:`analytic_ids`, which tells the objects whose own outlines are
+    traced (an intersection with one of them is drawn from the smaller id's outline)."""
     k = np.uint32(k)
     in_a = a["hit"] & (a["object_id"] == k)
     in_b = b["hit"] & (b["object_id"] == k)
     inside, outside = _sides(in_a, a, b)
     farther = ~outside["hit"] | (outside["depth"] > inside["depth"] * (1.0 + RISE))
-    return _state(in_a ^ in_b, farther, inside), inside
+    state = _state(in_a ^ in_b, farther, inside)
+    other = outside["object_id"]
+    level = outside["hit"] & (np.abs(outside["depth"] - inside["depth"]) <= inside["depth"] * RISE)
+    mine = (lut[np.minimum(other, len(lut) - 1)] == 0) | (k < other)
+    meet = (in_a ^ in_b) & level & (other != k) & mine
+    return np.where(meet, 2 + 3 * inside["glass"].astype(int), state), inside
 
 
 def _depth_step_state(k: int, a: dict, b: dict) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -654,7 +669,7 @@ def _depth_step_state(k: int, a: dict, b: dict) -> tuple[np.ndarray, dict[str, n
 
 def _state(ok: np.ndarray, farther: np.ndarray, inside: dict) -> np.ndarray:
     grazing = inside["cos"] < GRAZING
-    kind = np.where(grazing, 0, 1) + 2 * inside["glass"].astype(int)
+    kind = np.where(grazing, 0, 1) + 3 * inside["glass"].astype(int)
     return np.where(ok & farther, kind, -1)
 
 
@@ -690,18 +705,22 @@ def _path_strokes(path: VectorPath, state: np.ndarray, inside: dict) -> list[Str
         st = int(state[idx[0]])
         out.append(
             Stroke(
-                kind="silhouette" if st % 2 == 0 else "border",
+                kind=_KINDS[st % 3],
                 points=pts[keep_idx],
                 position=inside["position"][keep_idx],
                 depth=inside["depth"][keep_idx],
                 object_id=np.full(len(keep_idx), k, np.uint32),
                 prim=inside["prim"][keep_idx],
                 qi=0,
-                through_glass=st >= 2,
+                through_glass=st >= 3,
                 closed=closed,
             )
         )
     return out
+
+
+#: The stroke kind of each outline state modulo 3 (:func:`_id_outline_state`).
+_KINDS = ("silhouette", "border", "intersection")
 
 
 def _col(mask: np.ndarray, like: np.ndarray) -> np.ndarray:
