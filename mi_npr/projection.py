@@ -1,4 +1,4 @@
-"""World -> image for a Mitsuba perspective camera, written once.
+"""World -> image for a Mitsuba perspective (or thin-lens) camera, written once.
 
 The EXR writer's standard attributes (``worldToCamera``, ``worldToNDC``) and the reprojection of
 :mod:`mi_npr.coherence` use the same matrices. A :class:`~mi_npr.gbuffer.Projection` holds Mitsuba's
@@ -27,14 +27,20 @@ def world_to_camera(camera: Projection) -> np.ndarray:
     return _MIRROR_X @ np.linalg.inv(camera.to_world)
 
 
+#: The camera kinds that project through one point (:func:`world_to_ndc`): a thin lens through
+#: the centre of its lens, where the G-buffer's pixel rays pass (:mod:`mi_npr.render`).
+PINHOLE = ("perspective", "thinlens")
+
+
 def world_to_ndc(camera: Projection) -> np.ndarray | None:
-    """World -> OpenEXR NDC (homogeneous, column vectors; ``None`` unless perspective).
+    """World -> OpenEXR NDC (homogeneous, column vectors; ``None`` unless the camera's kind is
+    one of :data:`PINHOLE`).
 
     After the divide by w: x = 0 at the image's left edge and 1 at its right, y = 0 at the top
     and 1 at the bottom (RenderMan's NDC, which OpenEXR's standard attributes use), z = 0 on the
     near and 1 on the far clip plane. ``camera.fov`` is Mitsuba's horizontal field of view.
     """
-    if camera.fov is None or camera.kind != "perspective":
+    if camera.fov is None or camera.kind not in PINHOLE:
         return None
     w, h = camera.resolution
     tan_x = np.tan(np.radians(camera.fov) / 2.0)

@@ -207,3 +207,29 @@ def test04_moved_vertices_are_seen_by_the_next_extraction(tmp_path):
     d = np.hypot(*(pts[:, None, :] - px[None]).transpose(2, 0, 1))
     assert d.min(1).max() < 0.05  # every vertex on a corner of the shrunk cube...
     assert len(set(d.argmin(1).tolist())) == 8  # ...and every corner reached
+
+
+def test05_a_thin_lens_draws_the_pinhole_at_its_lens_centre(tmp_path):
+    """A thin-lens camera (a wide aperture, focused elsewhere) has the strokes of the pinhole at
+    its lens centre, where the G-buffer's pixel rays pass: the cube's visible corners on their
+    projections, the same strokes as the perspective camera's."""
+    path = tmp_path / "scene.xml"
+    load(tmp_path, CUBE.format(POSE))  # writes scene.xml with the perspective camera
+    text = path.read_text()
+    lens = (
+        '<sensor type="thinlens"><float name="aperture_radius" value="0.3"/>'
+        '<float name="focus_distance" value="2.0"/>'
+    )
+    path.write_text(text.replace('<sensor type="perspective">', lens, 1))
+    assert 'type="thinlens"' in path.read_text()
+    thin = mi_npr.load_scene(path)
+    assert thin.sensors()[0].class_name() == "ThinLensCamera"
+    pin = load(tmp_path, CUBE.format(POSE))
+    a = extract_strokes(thin, thin.sensors()[0])
+    b = extract_strokes(pin, pin.sensors()[0])
+    assert [(s.kind, s.qi, len(s)) for s in a] == [(s.kind, s.qi, len(s)) for s in b]
+    for s, t in zip(a, b, strict=True):
+        np.testing.assert_allclose(s.points, t.points, atol=1e-4)
+    corners = project(cube_geometry()[0])
+    ends = np.concatenate([s.points for s in a if s.qi == 0])
+    assert np.hypot(*(ends[:, None] - corners[None]).transpose(2, 0, 1)).min(1).max() < 0.05

@@ -586,16 +586,17 @@ def _concat(x: FeatureEdges, y: FeatureEdges) -> FeatureEdges:
 
 
 class Projector:
-    """World -> film for a perspective sensor: ``clip(P)`` homogeneous coordinates, where the
-    film position is ``(X / W * width, Y / W * height)`` and ``W`` the depth along the view
-    axis (the ``Z`` layer's)."""
+    """World -> film for a perspective (or thin-lens: through its lens centre) sensor:
+    ``clip(P)`` homogeneous coordinates, where the film position is ``(X / W * width, Y / W *
+    height)`` and ``W`` the depth along the view axis (the ``Z`` layer's)."""
 
     def __init__(self, sensor: mi.Sensor) -> None:
         cam = projection_of(sensor)
         ndc = world_to_ndc(cam)
         if ndc is None:
             raise ParameterError(
-                f"strokes: the {cam.kind} camera is not supported (a perspective camera is)"
+                f"strokes: the {cam.kind} camera is not supported "
+                "(a perspective or thinlens one is)"
             )
         self.camera = cam
         self.width, self.height = cam.resolution
