@@ -253,7 +253,7 @@ def lines_as_strokes(
     ``line_width / 2 + 2`` px from every stroke are traced (:func:`mi_npr.contours.trace_strokes`)
     into the layer's ``traced`` sub-layer: leaf edges, depth lines where a surface recedes
     steeply, ID edges of an ``id_mode`` finer than a shape, and, for a camera the strokes refuse
-    (not a perspective one), every line pixel."""
+    (a sensor that is not a perspective, thin-lens or orthographic camera), every line pixel."""
     crease = float(params["crease_angle"])
     strokes = None
     if drawn is not None and crease in (0.0, drawn.strokes.params.get("crease_angle")):

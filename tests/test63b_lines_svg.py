@@ -295,14 +295,41 @@ def test07_every_line_pixel_is_a_stroke_or_traced(tmp_path):
     assert len(strokes) >= 4  # the sphere's outline and the box's
 
 
-def test08_a_camera_the_strokes_refuse_traces_every_line_pixel(tmp_path):
+def _ortho(tmp_path):
     xml = tmp_path / "ortho.xml"
     xml.write_text(
         re.sub(r'type="perspective">\s*<float name="fov" value="[^"]*"/>', 'type="orthographic">',
                scene_xml(CUBE, W, H, origin="0, 0, 0", target="0, 0, 1"))
     )  # fmt: skip
     assert "orthographic" in xml.read_text()
-    r = render_layers(xml, ["lines"], spp=1)
+    return xml
+
+
+def test08_an_orthographic_cameras_lines_are_strokes(tmp_path):
+    """An orthographic camera gets object-space strokes too: every line pixel lies near one,
+    nothing is left to trace."""
+    r = render_layers(_ortho(tmp_path), ["lines"], spp=1)
+    write_layered_outputs(r, tmp_path, "o", svg_image="none")
+    root = ET.parse(tmp_path / "o_lines.svg").getroot()
+    (layer,) = [g for g in root.findall(f"{SVG}g") if g.get(f"{INK}label") == "lines"]
+    strokes = [p for g in layer.findall(f"{SVG}g[@data-kind]") for p in paths_of(g)]
+    assert strokes and layer.find(f"{SVG}g[@id='traced']") is None
+    mask = r.gbuffer.numpy(L.LINES) > 0.5
+    ys, xs = np.nonzero(mask)
+    c = np.stack([xs + 0.5, ys + 0.5], 1)
+    assert np.min([seg_dist(c, p) for p in strokes], axis=0).max() <= 0.5 + 2.0 + 0.85
+
+
+def test09_a_camera_the_strokes_refuse_traces_every_line_pixel(tmp_path, monkeypatch):
+    """Where the strokes refuse the camera (a ParameterError from the extraction, as for a
+    sensor that is no camera), every line pixel is traced instead."""
+    import mi_npr.pipeline as P
+
+    def refuse(*args, **kwargs):
+        raise mi_npr.ParameterError("strokes: the radiancemeter camera is not supported")
+
+    monkeypatch.setattr(P, "extract_strokes", refuse)
+    r = render_layers(_ortho(tmp_path), ["lines"], spp=1)
     write_layered_outputs(r, tmp_path, "o", svg_image="none")
     root = ET.parse(tmp_path / "o_lines.svg").getroot()
     mask = r.gbuffer.numpy(L.LINES) > 0.5

@@ -233,3 +233,56 @@ def test05_a_thin_lens_draws_the_pinhole_at_its_lens_centre(tmp_path):
     corners = project(cube_geometry()[0])
     ends = np.concatenate([s.points for s in a if s.qi == 0])
     assert np.hypot(*(ends[:, None] - corners[None]).transpose(2, 0, 1)).min(1).max() < 0.05
+
+
+def test06_an_orthographic_cube_ends_on_its_projected_corners(tmp_path):
+    """An orthographic camera (``to_world``: a scale of 2.5 then the look-at): its rays are
+    parallel, so the cube's visible edges end on the corners' parallel projections (film
+    ``x = (1 - c_x) / 2 W``, ``y = (1 - (W / H) c_y) / 2 H`` of camera-space ``c``, Mitsuba's
+    ``orthographic``), each edge once, the three facing away hidden (QI 1), silhouettes where
+    one face turns away from the view axis, and each vertex's depth its distance along it."""
+    import re
+
+    scale = 2.5
+    load(tmp_path, CUBE.format(POSE))
+    path = tmp_path / "scene.xml"
+    text = re.sub(
+        r'<sensor type="perspective">\s*<float name="fov" value="[^"]*"/>',
+        '<sensor type="orthographic">',
+        path.read_text(),
+    )
+    text = text.replace("<lookat", f'<scale x="{scale}" y="{scale}"/><lookat', 1)
+    path.write_text(text)
+    scene = mi_npr.load_scene(path)
+    assert scene.sensors()[0].class_name() == "OrthographicCamera"
+    st = extract_strokes(scene, scene.sensors()[0])
+    f = (TARGET - ORIGIN) / np.linalg.norm(TARGET - ORIGIN)
+    left = np.cross(UP, f)
+    left /= np.linalg.norm(left)
+    up = np.cross(f, left)
+
+    def film(p: np.ndarray) -> np.ndarray:
+        v = np.asarray(p, np.float64) - ORIGIN
+        cx, cy = v @ left / scale, v @ up / scale
+        return np.stack([(1 - cx) / 2 * W, (1 - (W / H) * cy) / 2 * H], -1)
+
+    corners, edges, faces = cube_geometry()
+    px = film(corners)
+    covered: dict[tuple[int, int], list] = {}
+    for s in st:
+        d = np.hypot(*(s.points[:, None, :] - px[None]).transpose(2, 0, 1))
+        assert d.min(1).max() < 0.05  # every vertex on a projected corner
+        np.testing.assert_allclose(s.depth, (s.position - ORIGIN) @ f, atol=1e-5)
+        near = d.argmin(1)
+        seg = list(itertools.pairwise(near)) + ([(near[-1], near[0])] if s.closed else [])
+        for a, b in seg:
+            covered.setdefault((min(a, b), max(a, b)), []).append(s)
+    assert sorted(covered) == sorted(edges)
+    assert all(len(v) == 1 for v in covered.values())
+    for key, (s,) in covered.items():
+        front = [float(n @ f) < 0 for n in faces[key]]
+        if sum(front) == 1:
+            assert (s.kind, s.qi) == ("silhouette", 0), key
+        else:
+            assert s.kind == "crease" and s.qi == (0 if any(front) else 1), key
+    assert sum(1 for v in covered.values() if v[0].qi == 1) == 3

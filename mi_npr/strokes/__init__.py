@@ -49,9 +49,10 @@ object space, exact, and the image is used for what object space lacks.
    and colours; the files ``<stem>_strokes.svg``, ``.json`` and ``.png`` are written by
    :mod:`mi_npr.io.strokes` (which documents the JSON schema).
 
-**Ambiguities resolved.** A perspective camera is required, or a thin lens, whose strokes are
-those of the pinhole at its lens centre (where the G-buffer's pixel rays pass; an orthographic
-camera is refused with an error). An edge has one kind, the first of silhouette, border,
+**Ambiguities resolved.** The camera is perspective, a thin lens (whose strokes are those of
+the pinhole at its lens centre, where the G-buffer's pixel rays pass) or orthographic (parallel
+rays from its near plane: silhouettes where ``n . f`` changes sign along its view axis ``f``);
+any other sensor is refused with an error. An edge has one kind, the first of silhouette, border,
 material, crease. Points behind glass keep their unrefracted position. Strokes are clipped
 at the image frame (exactly, in homogeneous coordinates). The frame's depth range (for widths
 by depth and eq. 5.1) is that of the G-buffer's ``Z`` layer. Chaining across objects happens

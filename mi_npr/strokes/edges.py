@@ -14,8 +14,9 @@ only classifies the edges (``O(E)`` array operations).
 1. ``silhouette``: two faces, one front-facing and one back-facing. A face is front-facing when
    its normal points to the camera: ``n . (a - o) < 0`` with ``o`` the camera origin and ``a``
    any point of the face (exact for a perspective camera: every point of the edge gives the same
-   sign). Normals follow the winding; where two faces wind the shared edge the same way (an
-   inconsistently oriented mesh) the second face's normal is flipped for this edge.
+   sign); for an orthographic camera, ``n . f < 0`` with ``f`` its view axis. Normals follow
+   the winding; where two faces wind the shared edge the same way (an inconsistently oriented
+   mesh) the second face's normal is flipped for this edge.
 2. ``border``: one face (the edge of an open surface).
 3. ``material``: two faces of different objects (the objects meet along the edge; an object
    boundary, whether or not their BSDFs differ).
@@ -33,7 +34,8 @@ Other edges (smooth, coplanar) are not drawn. Each edge is drawn with one face, 
 front face; for a border, its face): that face's object and primitive index are the edge's.
 
 **Projection** (:class:`Projector`): Mitsuba's perspective camera (:mod:`mi_npr.projection`'s
-matrices) in homogeneous coordinates. A 3-D segment is clipped to the view frustum (the near
+matrices; a thin lens through its lens centre) or orthographic camera (an affine map, ``W =
+1``) in homogeneous coordinates. A 3-D segment is clipped to the view frustum (the near
 plane and the image frame) in homogeneous coordinates, where every bound is linear in the
 segment's parameter, so the clipped ends lie exactly on the frame.
 """
@@ -50,6 +52,7 @@ import numpy as np
 
 from ..camera import projection_of
 from ..errors import ParameterError
+from ..gbuffer import Projection
 from ..projection import world_to_ndc
 from ..scene import ObjectTable
 from .intersect import intersections
@@ -526,18 +529,26 @@ class ViewEdges:
 
 
 def view_edges(
-    table: ObjectTable, origin: np.ndarray, crease_angle: float = 134.0, intersect: bool = True
+    table: ObjectTable,
+    origin: np.ndarray,
+    crease_angle: float = 134.0,
+    intersect: bool = True,
+    direction: np.ndarray | None = None,
 ) -> ViewEdges:
     """The feature edges of every mesh in ``table`` seen from ``origin`` (module docstring),
     with the ``intersection`` lines between different meshes when ``intersect``, their rows
-    made on demand (:class:`ViewEdges`)."""
+    made on demand (:class:`ViewEdges`); ``direction``: the view axis of an orthographic
+    camera, whose rays are parallel (a face is front-facing where ``n . direction < 0``)."""
     topo = topology(table)
     zi = np.zeros(0, np.int64)
     if len(topo.face_oid) == 0:
         return ViewEdges(topo, zi, zi.astype(np.int8), zi, zi)
     first = topo.views == 0
     topo.views += 1
-    d = topo.facing(origin)
+    if direction is None:
+        d = topo.facing(origin)
+    else:
+        d = topo.unit @ np.asarray(direction, np.float64).reshape(3)
     # front-facing tests as byte gathers over every edge (a block of edges at a time: bounded
     # temporaries); the values only for the drawn ones
     neg, pos = d < 0, d > 0
@@ -571,12 +582,16 @@ def view_edges(
 
 
 def feature_edges(
-    table: ObjectTable, origin: np.ndarray, crease_angle: float = 134.0, intersect: bool = True
+    table: ObjectTable,
+    origin: np.ndarray,
+    crease_angle: float = 134.0,
+    intersect: bool = True,
+    direction: np.ndarray | None = None,
 ) -> FeatureEdges:
     """The feature edges of every mesh in ``table`` seen from ``origin`` (module docstring),
     with the ``intersection`` lines between different meshes when ``intersect``: every row of
     :func:`view_edges` at once."""
-    return view_edges(table, origin, crease_angle, intersect).take(slice(None))
+    return view_edges(table, origin, crease_angle, intersect, direction).take(slice(None))
 
 
 def _concat(x: FeatureEdges, y: FeatureEdges) -> FeatureEdges:
@@ -585,24 +600,49 @@ def _concat(x: FeatureEdges, y: FeatureEdges) -> FeatureEdges:
     )
 
 
+def _orthographic(cam: Projection) -> np.ndarray:
+    """World -> (film x / width, film y / height, depth, 1) of Mitsuba's orthographic camera
+    (4x4, column vectors): its camera space spans ``x`` in [-1, 1] (+x to the left) and ``y``
+    in [-1 / aspect, 1 / aspect] over the film, before ``to_world``'s scale; the depth is the
+    distance along the view axis from the camera's origin, as the ``Z`` layer's."""
+    inv = np.linalg.inv(cam.to_world)
+    w, h = cam.resolution
+    unit = np.array([0.0, 0.0, 0.0, 1.0])
+    f = cam.forward
+    return np.stack(
+        [
+            0.5 * (unit - inv[0]),
+            0.5 * (unit - (w / h) * inv[1]),
+            np.append(f, -f @ cam.origin),
+            unit,
+        ]
+    )
+
+
 class Projector:
-    """World -> film for a perspective (or thin-lens: through its lens centre) sensor:
-    ``clip(P)`` homogeneous coordinates, where the film position is ``(X / W * width, Y / W *
-    height)`` and ``W`` the depth along the view axis (the ``Z`` layer's)."""
+    """World -> film for a perspective (or thin-lens: through its lens centre) or an
+    orthographic sensor: ``clip(P)`` homogeneous coordinates, where the film position is
+    ``(X / W * width, Y / W * height)``; the depth along the view axis (the ``Z`` layer's) is
+    ``W`` for a perspective camera and the third coordinate for an orthographic one (whose
+    ``W`` is 1). ``ortho``: the camera is orthographic; its rays run along ``forward`` from
+    the near plane."""
 
     def __init__(self, sensor: mi.Sensor) -> None:
         cam = projection_of(sensor)
         ndc = world_to_ndc(cam)
-        if ndc is None:
+        self.ortho = ndc is None and cam.kind == "orthographic"
+        if ndc is None and not self.ortho:
             raise ParameterError(
                 f"strokes: the {cam.kind} camera is not supported "
-                "(a perspective or thinlens one is)"
+                "(a perspective, thinlens or orthographic one is)"
             )
         self.camera = cam
         self.width, self.height = cam.resolution
         self.near = float(cam.near_clip)
-        self.matrix = ndc
+        self.matrix = _orthographic(cam) if self.ortho else ndc
         self.origin = cam.origin
+        self.forward = cam.forward
+        self._depth = 2 if self.ortho else 3
 
     def clip(self, p: np.ndarray) -> np.ndarray:
         """Homogeneous coordinates (..., 4) of world points ``p`` (..., 3): ``X, Y`` scaled so
@@ -625,7 +665,7 @@ class Projector:
         w = h[..., 3]
         with np.errstate(divide="ignore", invalid="ignore"):
             xy = np.stack([h[..., 0] / w * self.width, h[..., 1] / w * self.height], -1)
-        return xy, w
+        return xy, h[..., self._depth]
 
     def clip_segments(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The parameter interval ``[lo, hi]`` of each segment ``a + s (b - a)`` (E, 3) inside
@@ -641,8 +681,9 @@ class Projector:
         hi = np.ones(len(ha))
         x0, y0, w0 = ha[:, 0], ha[:, 1], ha[:, 3]
         x1, y1, w1 = hb[:, 0], hb[:, 1], hb[:, 3]
+        z0, z1 = ha[:, self._depth], hb[:, self._depth]  # the depths: affine in s too
         for f0, f1 in (
-            (w0 - self.near, w1 - self.near),
+            (z0 - self.near, z1 - self.near),
             (x0, x1),
             (w0 - x0, w1 - x1),
             (y0, y1),

@@ -56,7 +56,9 @@ BESIDE = 1.0
 
 
 def _film_param_to_3d(u: np.ndarray, wa: np.ndarray, wb: np.ndarray) -> np.ndarray:
-    """The 3-D segment parameter of film parameter ``u`` (perspective-correct)."""
+    """The 3-D segment parameter of film parameter ``u`` (perspective-correct; ``wa``, ``wb``
+    the ends' homogeneous weights: ``u`` itself where they are equal, as for an orthographic
+    camera)."""
     return u * wa / ((1.0 - u) * wb + u * wa)
 
 
@@ -72,7 +74,8 @@ EDGE_CHUNK = 1 << 17
 
 def _clip(proj: Projector, edges: FeatureEdges) -> dict[str, np.ndarray]:
     """The parts of ``edges`` inside the view frustum, one row per edge that has one: the
-    clipped ends ``A``, ``B`` (world) and their depths ``wa``, ``wb``, the film length and
+    clipped ends ``A``, ``B`` (world) and their homogeneous weights ``wa``, ``wb`` (the
+    depths for a perspective camera, 1 for an orthographic one), the film length and
     the number of visibility samples ``count``, whether each end is the edge's own
     (``whole_a``, ``whole_b``: not cut by the frustum), and the edge's own fields (``va``,
     ``vb``, ``kind``, ``object_id``, ``prim``, ``faces``)."""
@@ -84,8 +87,10 @@ def _clip(proj: Projector, edges: FeatureEdges) -> dict[str, np.ndarray]:
     A = a + lo_e * (b - a)
     B = a + hi_e * (b - a)
     # the clipped ends' film positions from the ends' homogeneous coordinates (linear)
-    xa, wa = proj.film_of(ha + lo_e * (hb - ha))
-    xb, wb = proj.film_of(ha + hi_e * (hb - ha))
+    ca, cb = ha + lo_e * (hb - ha), ha + hi_e * (hb - ha)
+    (xa, _), (xb, _) = proj.film_of(ca), proj.film_of(cb)
+    wa, wb = ca[:, 3], cb[:, 3]
+    del ca, cb
     length = np.hypot(*(xb - xa).T)
     count = np.maximum(2, np.ceil(length / SPACING).astype(np.int64) + 1)
     out = dict(A=A, B=B, wa=wa, wb=wb, length=length, count=count)
@@ -177,7 +182,10 @@ def _rays(
 ) -> SegmentVisibility:
     """The visibility rays to the ``clipped`` edges, counting to ``max_qi + 1``."""
     A, B, wa, wb = clipped["A"], clipped["B"], clipped["wa"], clipped["wb"]
-    return SegmentVisibility(scene, table, proj.origin, A, B, wa, wb, clipped["faces"], max_qi + 1)
+    axis = proj.forward if proj.ortho else None  # parallel rays from the near plane
+    return SegmentVisibility(
+        scene, table, proj.origin, A, B, wa, wb, clipped["faces"], max_qi + 1, axis, proj.near
+    )
 
 
 def _split(
@@ -398,15 +406,15 @@ def cast_depth_range(scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable) -> 
     return (float(z.min()), float(z.max())) if z.size else (0.0, 1.0)
 
 
-def resampled(stroke: Stroke, spacing: float) -> Stroke:
+def resampled(stroke: Stroke, spacing: float, ortho: bool = False) -> Stroke:
     """``stroke`` with vertices added so that none of its segments is longer than ``spacing``
     px on the film: film positions evenly along each segment, world positions and depths
-    perspective-correct (exact on a straight 3-D segment), object and primitive those of the
-    segment's first vertex."""
-    return resampled_all([stroke], spacing)[0]
+    perspective-correct (exact on a straight 3-D segment; linear for an ``ortho`` camera),
+    object and primitive those of the segment's first vertex."""
+    return resampled_all([stroke], spacing, ortho)[0]
 
 
-def resampled_all(strokes: list[Stroke], spacing: float) -> list[Stroke]:
+def resampled_all(strokes: list[Stroke], spacing: float, ortho: bool = False) -> list[Stroke]:
     """:func:`resampled` of every stroke, as array operations over all their vertices."""
     size = np.array([len(s) for s in strokes], np.int64)
     todo = [i for i, s in enumerate(strokes) if len(s) >= 2]
@@ -444,11 +452,14 @@ def resampled_all(strokes: list[Stroke], spacing: float) -> list[Stroke]:
     B = A.copy()
     B[body] = b
     A[~body] = B[~body] = (first + n - 1)[~closed]
-    s3 = _film_param_to_3d(U, dep[A], dep[B])
+    s3 = U.copy() if ortho else _film_param_to_3d(U, dep[A], dep[B])
     s3[~body] = 0.0
     P = p[A] + U[:, None] * (p[B] - p[A])
     Q = pos[A] + s3[:, None] * (pos[B] - pos[A])
-    D = 1.0 / ((1.0 - U) / dep[A] + U / dep[B])
+    if ortho:
+        D = dep[A] + U * (dep[B] - dep[A])
+    else:
+        D = 1.0 / ((1.0 - U) / dep[A] + U / dep[B])
     for j, (i, s) in enumerate(zip(todo, sub, strict=True)):
         r = slice(start[j], start[j] + count[j])
         out[i] = Stroke(
@@ -607,7 +618,9 @@ def extract_strokes(
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
     camera = proj.camera
-    edges = view_edges(table, proj.origin, crease_angle)
+    edges = view_edges(
+        table, proj.origin, crease_angle, direction=proj.forward if proj.ortho else None
+    )
     first = edges.first
     strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)
     del edges
@@ -616,7 +629,7 @@ def extract_strokes(
         strokes += raytree_strokes(scene, sensor, table, camera, raytree_depth)
     strokes = [s for s in strokes if len(s) >= 2]
     if resample:
-        strokes = resampled_all(strokes, resample)
+        strokes = resampled_all(strokes, resample, ortho=proj.ortho)
     if depth_behind:
         _add_depth_behind(scene, sensor, table, strokes, camera)
     if depth_range is None:

@@ -118,7 +118,10 @@ class SegmentVisibility:
     """QI and ``through_glass`` of points along ``E`` world segments ``a -> b`` (E, 3), seen
     from ``origin``: ``at(i, u)`` is the point of film parameter ``u`` on segment ``i``
     (perspective-correct: 3-D parameter ``s = u w_a / ((1 - u) w_b + u w_a)``, ``w`` the ends'
-    depths ``wa``, ``wb``), lying on the faces ``own`` (E, 2, 2) (``quantitative_invisibility``'s).
+    homogeneous weights ``wa``, ``wb``: their depths, or 1 for an orthographic camera), lying
+    on the faces ``own`` (E, 2, 2) (``quantitative_invisibility``'s). With ``axis`` (an
+    orthographic camera's view axis) the ray to a point ``P`` runs along it from the near plane
+    (``near`` from ``origin``) instead of from ``origin``.
     The segments are sent to Dr.Jit once; each call sends only ``(i, u)`` and computes its
     points there (in single precision: their error, ~1e-7 of their distance, lies far inside
     the ``EPSILON`` guard)."""
@@ -134,10 +137,17 @@ class SegmentVisibility:
         wb: np.ndarray,
         own: np.ndarray,
         max_qi: int,
+        axis: np.ndarray | None = None,
+        near: float = 0.0,
     ) -> None:
         self.scene, self.table, self.max_qi = scene, table, max_qi
         # an evaluated array, not a literal: a literal origin would compile a kernel per view
         self.origin = _vec(np.asarray(origin, np.float64).reshape(1, 3), mi.Point3f)
+        # an orthographic camera: parallel rays along ``axis`` from the near plane
+        self.axis = None
+        if axis is not None:
+            self.axis = _vec(np.asarray(axis, np.float64).reshape(1, 3), mi.Vector3f)
+            self.near = jit_array(mi.Float, np.array([near], np.float32))
         self.a = _vec(a, mi.Point3f)
         self.ab = _vec(np.asarray(b, np.float64) - np.asarray(a, np.float64), mi.Vector3f)
         self.wa = jit_array(mi.Float, np.asarray(wa, np.float32))
@@ -153,7 +163,11 @@ class SegmentVisibility:
         wa, wb = dr.gather(mi.Float, self.wa, i), dr.gather(mi.Float, self.wb, i)
         s = u * wa / ((1.0 - u) * wb + u * wa)
         p = dr.fma(dr.gather(mi.Vector3f, self.ab, i), s, dr.gather(mi.Point3f, self.a, i))
-        o = dr.gather(mi.Point3f, self.origin, dr.zeros(mi.UInt32, dr.width(i)))
+        zero = dr.zeros(mi.UInt32, dr.width(i))
+        o = dr.gather(mi.Point3f, self.origin, zero)
+        if self.axis is not None:  # the point of the near plane in front of p
+            f = dr.gather(mi.Vector3f, self.axis, zero)
+            o = p - (dr.dot(p - o, f) - dr.gather(mi.Float, self.near, zero)) * f
         d = p - o
         dist = dr.norm(d)
         return (
