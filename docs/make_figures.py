@@ -367,6 +367,51 @@ def strokes_lego_panel() -> Path | None:
     return _figure(panels, "strokes_lego.png", (1, 2), (16, 6.2), 80)
 
 
+def strokes_cameras_panel() -> Path | None:
+    """Strokes (``technical`` style) of mitsuba-data's documentation scenes seen through a thin
+    lens and an orthographic camera, an open cylinder, and two spheres sunk into a box and
+    through each other (intersection strokes of shapes that are not meshes), 320x240 (needs
+    ``$MI_NPR_DATA``, a mitsuba-data clone)."""
+    import tempfile
+
+    from mi_npr.io.strokes import strokes_on_paper
+    from mi_npr.scene import SEARCH_PATH_ENV, object_table
+    from mi_npr.strokes.drawing import STROKES_PARAMS, draw_strokes
+
+    root = os.environ.get("MI_NPR_DATA")
+    if not root:
+        print("strokes_cameras: set MI_NPR_DATA to a mitsuba-data clone")
+        return None
+    docs = Path(root) / "docs" / "scenes"
+    common = Path(root) / "common"
+    os.environ[SEARCH_PATH_ENV] = os.pathsep.join(map(str, (common, common / "meshes", docs)))
+    spheres = Path(tempfile.mkdtemp()) / "spheres.xml"
+    spheres.write_text(
+        '<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="35"/>'
+        '<transform name="to_world"><lookat origin="0.8, 3.2, 8" target="0.4, -0.4, 0" '
+        'up="0, 1, 0"/></transform><film type="hdrfilm"><integer name="width" value="320"/>'
+        '<integer name="height" value="240"/></film></sensor>'
+        '<shape type="sphere"><point name="center" value="0, 0, 0"/>'
+        '<float name="radius" value="0.8"/></shape>'
+        '<shape type="sphere"><point name="center" value="1.1, 0.1, 0.2"/>'
+        '<float name="radius" value="0.6"/></shape>'
+        '<shape type="cube"><transform name="to_world"><scale x="2" y="0.4" z="1.5"/>'
+        '<translate x="0.4" y="-0.8"/></transform></shape></scene>'
+    )
+    panels = []
+    for path, title in (
+        (docs / "sensor_thinlens.xml", "thin lens (sensor_thinlens.xml)"),
+        (docs / "sensor_orthographic.xml", "orthographic (sensor_orthographic.xml)"),
+        (docs / "shape_cylinder_twosided.xml", "open cylinder (shape_cylinder_twosided.xml)"),
+        (spheres, "spheres sunk into a box: intersection strokes"),
+    ):
+        scene = mi_npr.load_scene(path, width=320, height=240, spp=4)
+        params = {p.name: p.default for p in STROKES_PARAMS} | {"style": "technical"}
+        d = draw_strokes(scene, scene.sensors()[0], object_table(scene), params)
+        panels.append((mi_npr.io.to_rgb8(strokes_on_paper(d)), title))
+    return _figure(panels, "strokes_cameras.png", (1, 4), (18, 3.9), 80)
+
+
 PANELS = {
     "overview": overview_panel,
     "gbuffer": gbuffer_panel,
@@ -380,6 +425,7 @@ PANELS = {
     "fit_shape": fit_shape_panel,
     "dataset": dataset_panel,
     "strokes_lego": strokes_lego_panel,
+    "strokes_cameras": strokes_cameras_panel,
 }
 
 if __name__ == "__main__":
