@@ -96,7 +96,7 @@ from .kernels.ink import DENSITY_WINDOW, MAX_WIDTH
 from .params import check_values
 from .raycast import film_size, require_jit
 from .render import grid_channels
-from .scene import object_table
+from .scene import ObjectTable, object_table
 from .session import RENDER_LOCK
 
 #: Most rays per pixel side: 8 x 8 = 64 rays per pixel.
@@ -143,18 +143,23 @@ def check_aa_width(width: float, n: int, who: str = "") -> None:
 
 
 def supersampled_gbuffer(
-    scene: mi.Scene, sensor: mi.Sensor, n: int, rows: tuple[int, int] | None = None
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    n: int,
+    rows: tuple[int, int] | None = None,
+    table: ObjectTable | None = None,
 ) -> GBuffer:
     """The G-buffer layers ``Z P N object_id prim_id`` of ``n x n`` rays per pixel, laid out as
     an ``(n H, n W)`` image (the pixel-centre G-buffer of a film ``n`` times larger, seams closed
     as in :mod:`mi_npr.render`); ``rows = (r0, r1)``: the film's rows ``r0 .. r1 - 1`` only, an
-    ``(n (r1 - r0), n W)`` strip (seams closed against the strip alone)."""
+    ``(n (r1 - r0), n W)`` strip (seams closed against the strip alone). ``table``: the scene's
+    object table (built when not given)."""
     require_jit("line_aa")
     w, h = film_size(sensor)
     r0, r1 = (0, h) if rows is None else rows
     W, H = w * n, (r1 - r0) * n
     with RENDER_LOCK:
-        table = object_table(scene)
+        table = table if table is not None else object_table(scene)
         # (j + 0.5) / n film pixels: the centre of sub-pixel j of the n-times-larger film.
         out = grid_channels(scene, sensor, table, shade=False, n=n, rows=(r0 * n, r1 * n))
     TF, TU = mi.TensorXf, mi.TensorXu
@@ -312,8 +317,11 @@ def antialiased_lines(
     level = float(params.get("bright_fade", 0.0))
     sub = {**params, "line_width": aa_width(width, n), "bright_fade": 0.0}
 
+    with RENDER_LOCK:
+        table = object_table(scene)  # once, not once a strip
+
     def strip_gbuffer(rows: tuple[int, int] | None) -> GBuffer:
-        big = _mapped(supersampled_gbuffer(scene, sensor, n, rows), ids)
+        big = _mapped(supersampled_gbuffer(scene, sensor, n, rows, table), ids)
         if params.get("leaf_edges"):
             big = big.with_layers({L.LEAF_ID: leaf_id_layer(scene, big)})
         return big
