@@ -108,11 +108,13 @@ def _capsules(
     size: np.ndarray,
     width: int,
     height: int,
+    owner: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pixels covered by polylines ``p`` (M, 2) given one after the other (``size`` (S,)
     vertices each) with per-vertex radius ``r`` and opacity ``o`` (module docstring): each
-    covered (polyline, pixel) once, with its largest coverage (over the polyline's segments);
-    a polyline of one vertex is a dot."""
+    covered (owner, pixel) once, with its largest coverage (over the owner's segments), in
+    order of owner then pixel; ``owner`` (S,): whose each polyline is (the pieces of one dashed
+    stroke; default: its own index); a polyline of one vertex is a dot."""
     one = size == 1
     if one.any():  # a dot: the segment from the vertex to itself
         rep = np.where(np.repeat(one, size), 2, 1)
@@ -158,10 +160,18 @@ def _capsules(
         z = np.zeros(0, np.int64)
         return z, z, np.zeros(0)
     idx, cov, own = np.concatenate(idx), np.concatenate(cov), np.concatenate(own)
-    order = np.lexsort((-cov, idx, own))  # per polyline and pixel, the largest first
-    own, idx, cov = own[order], idx[order], cov[order]
-    first = np.append(True, (idx[1:] != idx[:-1]) | (own[1:] != own[:-1]))
-    return own[first], idx[first], cov[first]
+    if not len(idx):
+        return own.astype(np.int64), idx.astype(np.int64), cov
+    if owner is not None:
+        own = np.asarray(owner, np.int64)[own]
+    # per owner and pixel, the largest coverage: one sort of one key, a maximum per run
+    key = own.astype(np.int64) * (width * height) + idx
+    order = np.argsort(key, kind="stable")
+    key = key[order]
+    head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
+    cov = np.maximum.reduceat(cov[order], head)
+    key = key[head]
+    return key // (width * height), key % (width * height), cov
 
 
 #: Pixel tests per batch of :func:`_capsules` (memory bound).
@@ -207,15 +217,11 @@ def _coverage(
     v = np.concatenate([x[1] for x in parts])
     n = np.concatenate([x[2] for x in parts])
     k = np.concatenate([x[3] for x in parts])
-    who, idx, cov = _capsules(p, v[:, 0] / 2.0, v[:, 1], n, width, height)
+    # the pieces of one stroke (its dashes) cover a pixel once, with their largest coverage
+    stroke, idx, cov = _capsules(p, v[:, 0] / 2.0, v[:, 1], n, width, height, k)
     if not len(idx):
         return z, z, np.zeros(0)
-    # the pieces of one stroke (its dashes) cover a pixel once, with their largest coverage
-    stroke = k[who]
-    order = np.lexsort((-cov, idx, stroke))
-    stroke, idx, cov = stroke[order], idx[order], cov[order]
-    first = np.append(True, (idx[1:] != idx[:-1]) | (stroke[1:] != stroke[:-1]))
-    return stroke[first], idx[first], np.minimum(cov[first], 1.0)
+    return stroke, idx, np.minimum(cov, 1.0)
 
 
 def stroke_coverage(
