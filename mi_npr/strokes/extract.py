@@ -3,8 +3,9 @@
 1. The meshes' feature edges (:mod:`mi_npr.strokes.edges`), clipped to the view frustum.
 2. **Visibility**: each clipped edge is sampled every ``SPACING`` px on the film (uniformly on
    the film; the 3-D point of film parameter ``u`` is ``s = u w_a / ((1 - u) w_b + u w_a)``
-   along the 3-D segment, ``w`` the ends' depths) and each sample's state, QI and
-   ``through_glass`` (:mod:`mi_npr.strokes.visibility`), is cast. Where two neighbouring
+   along the 3-D segment, ``w`` the ends' depths; ``s = u`` for an orthographic camera, whose
+   rays are parallel) and each sample's state, QI and ``through_glass``
+   (:mod:`mi_npr.strokes.visibility`), is cast. Where two neighbouring
    samples differ, the change is found by ``ITERATIONS`` bisections along the edge (to
    ``SPACING / 2**ITERATIONS`` px) and the edge is split there. A change that starts and ends
    between two samples (an occluder thinner than ``SPACING`` px) is missed. The pieces
