@@ -407,9 +407,12 @@ class Topology:
             self._kinds[crease_angle] = kind
         return self._kinds[crease_angle]
 
-    def facing(self, origin: np.ndarray) -> np.ndarray:
+    def facing(self, origin: np.ndarray, direction: np.ndarray | None = None) -> np.ndarray:
         """``unit . (p - origin)`` per face (F,), ``p`` any point of its plane: negative where
-        the face is front-facing, its magnitude how squarely."""
+        the face is front-facing, its magnitude how squarely; ``unit . direction`` for an
+        orthographic camera's view axis ``direction`` (parallel rays)."""
+        if direction is not None:
+            return self.unit @ np.asarray(direction, np.float64).reshape(3)
         return self.offset - self.unit @ np.asarray(origin, np.float64).reshape(3)
 
 
@@ -545,10 +548,7 @@ def view_edges(
         return ViewEdges(topo, zi, zi.astype(np.int8), zi, zi)
     first = topo.views == 0
     topo.views += 1
-    if direction is None:
-        d = topo.facing(origin)
-    else:
-        d = topo.unit @ np.asarray(direction, np.float64).reshape(3)
+    d = topo.facing(origin, direction)
     # front-facing tests as byte gathers over every edge (a block of edges at a time: bounded
     # temporaries); the values only for the drawn ones
     neg, pos = d < 0, d > 0

@@ -6,8 +6,9 @@ triangle size there, at most ``GRID`` cells per axis); triangles sharing a cell,
 overlapping bounding boxes, are tested. The cost is about ``O(F + P)`` for ``F`` triangles in
 the overlaps and ``P`` candidate pairs (``O(F_a F_b)`` at worst, when all triangles crowd into
 one cell). Self-intersections of one mesh are not looked for. The candidates are found on the
-calling thread and tested in blocks of :data:`CHUNK` pairs on :func:`threads` others, meanwhile;
-the segments come in the same order as from one thread.
+calling thread and tested in blocks of :data:`CHUNK` pairs meanwhile, on as many threads as
+Dr.Jit has (a batch worker's ``--threads``, as OpenEXR's pool in :mod:`mi_npr.io.exr`); the
+segments come in the same order as from one thread.
 
 **One pair** (the plane-clipping form of Moller's test): each triangle's vertices are put on
 either side of the other's plane (a vertex on a plane counts as on its positive side, so a
@@ -22,9 +23,9 @@ welded (as mesh vertices are, :data:`mi_npr.strokes.edges.WELD`) so chaining joi
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 
+import drjit as dr
 import numpy as np
 
 #: Most grid cells per axis over the overlap of two meshes.
@@ -191,14 +192,6 @@ def _boxes(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def threads() -> int:
-    """Threads for numpy work that releases the GIL: the cores this process may run on."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
-
-
 def intersections(
     v: np.ndarray, f: np.ndarray, face_oid: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -245,10 +238,11 @@ def intersections(
     # this thread finds the candidates (many small numpy calls, which hold the GIL) while the
     # pool tests them in large blocks (long numpy loops, which let go of it); results in order
     found, jobs = [], []
-    with ThreadPoolExecutor(threads()) as pool:
+    workers = max(1, int(dr.thread_count()))  # as many as Dr.Jit has (a batch worker's)
+    with ThreadPoolExecutor(workers) as pool:
         for b in blocks():
             jobs.append(pool.submit(test, *b))
-            while len(jobs) > 2 * threads():  # a few blocks waiting at most (memory)
+            while len(jobs) > 2 * workers:  # a few blocks waiting at most (memory)
                 found.append(jobs.pop(0).result())
         found += [job.result() for job in jobs]
     found = [r for r in found if len(r[0])]
