@@ -362,16 +362,13 @@ def _outlines(
     k = np.repeat([p.object_id for p in every], [len(p) for p in every]).astype(np.uint32)
     n_id = sum(len(p) for p in paths)
     for wider in WIDER:
-        sees = [x["hit"] & (x["object_id"] == k) for x in (a, b)]
-        again = np.flatnonzero(sees[0][:n_id] == sees[1][:n_id])
+        again = np.flatnonzero(_sees(a, k)[:n_id] == _sees(b, k)[:n_id])
         if not len(again):
             break
         step = nrm[again] * (wider / PROBE)
         a2 = probe(scene, sensor, table, pts[again] + step, camera, glass)
         b2 = probe(scene, sensor, table, pts[again] - step, camera, glass)
-        told = (a2["hit"] & (a2["object_id"] == k[again])) != (
-            b2["hit"] & (b2["object_id"] == k[again])
-        )
+        told = _sees(a2, k[again]) != _sees(b2, k[again])
         for x, x2 in ((a, a2), (b, b2)):
             for key in x:
                 x[key][again[told]] = x2[key][told]
@@ -629,6 +626,11 @@ def depth_step_paths(
 # ------------------------------------------------------------------------ kinds and runs
 
 
+def _sees(probed: dict, k: np.ndarray | np.uint32) -> np.ndarray:
+    """Where the rays of a :func:`probe` hit object ``k`` (one id, or one a ray)."""
+    return probed["hit"] & (probed["object_id"] == k)
+
+
 def _sides(
     in_a: np.ndarray, a: dict, b: dict
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
@@ -646,8 +648,7 @@ def _id_outline_state(
     docstring). ``lut``: :func:`analytic_ids`, which tells the objects whose own outlines are
     traced (an intersection with one of them is drawn from the smaller id's outline)."""
     k = np.uint32(k)
-    in_a = a["hit"] & (a["object_id"] == k)
-    in_b = b["hit"] & (b["object_id"] == k)
+    in_a, in_b = _sees(a, k), _sees(b, k)
     inside, outside = _sides(in_a, a, b)
     farther = ~outside["hit"] | (outside["depth"] > inside["depth"] * (1.0 + RISE))
     state = _state(in_a ^ in_b, farther, inside)
@@ -662,7 +663,7 @@ def _depth_step_state(k: int, a: dict, b: dict) -> tuple[np.ndarray, dict[str, n
     """:func:`_id_outline_state` of a self-occlusion outline: the inside is the nearer probe,
     which sees ``k``."""
     inside, outside = _sides(a["depth"] <= b["depth"], a, b)
-    ok = inside["hit"] & (inside["object_id"] == np.uint32(k))
+    ok = _sees(inside, np.uint32(k))
     farther = outside["depth"] > inside["depth"] * (1.0 + RISE)
     return _state(ok, farther, inside), inside
 
