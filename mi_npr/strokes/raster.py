@@ -108,13 +108,13 @@ def _capsules(
     size: np.ndarray,
     width: int,
     height: int,
-    owner: np.ndarray | None = None,
+    owner: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pixels covered by polylines ``p`` (M, 2) given one after the other (``size`` (S,)
     vertices each) with per-vertex radius ``r`` and opacity ``o`` (module docstring): each
     covered (owner, pixel) once, with its largest coverage (over the owner's segments), in
     order of owner then pixel; ``owner`` (S,): whose each polyline is (the pieces of one dashed
-    stroke; default: its own index); a polyline of one vertex is a dot."""
+    stroke share theirs); a polyline of one vertex is a dot."""
     one = size == 1
     if one.any():  # a dot: the segment from the vertex to itself
         rep = np.where(np.repeat(one, size), 2, 1)
@@ -162,8 +162,7 @@ def _capsules(
     idx, cov, own = np.concatenate(idx), np.concatenate(cov), np.concatenate(own)
     if not len(idx):
         return own.astype(np.int64), idx.astype(np.int64), cov
-    if owner is not None:
-        own = np.asarray(owner, np.int64)[own]
+    own = np.asarray(owner, np.int64)[own]
     # per owner and pixel, the largest coverage: one sort of one key, a maximum per run
     key = own.astype(np.int64) * (width * height) + idx
     order = np.argsort(key, kind="stable")
