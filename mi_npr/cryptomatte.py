@@ -54,7 +54,10 @@ OBJECT = L.CRYPTO_OBJECT
 MATERIAL = L.CRYPTO_MATERIAL
 #: Ranks stored per pixel by default (3 RGBA layers), as Nuke's and Blender's writers do.
 DEFAULT_LEVELS = 6
-#: Dense accumulation holds (pixels x names) float64 weights; beyond this it is an error.
+#: Coverage cells (pixels x names, float32) accumulated at once: the film is ranked in bands of
+#: rows of at most this many cells (64 MB), a row at least.
+BAND_CELLS = 1 << 24
+#: The most cells of one row (a band of one row): beyond this, too many names is an error.
 _MAX_CELLS = 1 << 27
 #: Most samples cast at once for the coverage (about a million: some 100 MB of rays and hits).
 SAMPLES_PER_PASS = 1 << 20
@@ -136,12 +139,19 @@ def material_names(table: ObjectTable) -> dict[int, str]:
 
 # ------------------------------------------------------------------------------------- coverage
 def _samples(
-    scene: mi.Scene, sensor: mi.Sensor, table: ObjectTable, spp: int, seed: int
+    scene: mi.Scene,
+    sensor: mi.Sensor,
+    table: ObjectTable,
+    spp: int,
+    seed: int,
+    rows: tuple[int, int] | None = None,
 ) -> tuple[mi.Float, mi.Float, mi.UInt32]:
-    """Film positions (x, y) of ``spp`` jittered samples per pixel and the object id each sees.
-    Sample ``i`` belongs to pixel ``i // spp`` (raster order), as in Mitsuba's wavefront."""
+    """Film positions (x, y) of ``spp`` jittered samples per pixel of the film's ``rows``
+    (``(first, stop)``; default all) and the object id each sees. Sample ``i`` belongs to the
+    ``i // spp``-th pixel of those rows (raster order), as in Mitsuba's wavefront."""
     w, h = (int(v) for v in sensor.film().crop_size())
-    n = w * h * spp
+    r0, r1 = rows if rows is not None else (0, h)
+    n = w * (r1 - r0) * spp
     sampler = sensor.sampler().fork()
     sampler.set_sample_count(spp)
     sampler.set_samples_per_wavefront(spp)
@@ -149,7 +159,7 @@ def _samples(
     u = sampler.next_2d()
     idx = dr.arange(mi.UInt32, n) // spp
     x = mi.Float(idx % w) + u.x
-    y = mi.Float(idx // w) + u.y
+    y = mi.Float(idx // w + r0) + u.y
     ids = cast(scene, pixel_rays(sensor, x, y), table, coherent=False).object_id
     dr.eval(x, y, ids)
     return x, y, ids
@@ -173,26 +183,42 @@ def coverage(
     """
     acc = dr.zeros(mi.Float, check_cells(width, height, n_ids))
     _accumulate(acc, x, y, ids, n_ids, width, height, rfilter)
-    return _shares(acc, width * height, n_ids)
+    pixel, col, share = _shares(acc, 0, width * height, n_ids)
+    out = np.zeros((width * height, n_ids + 1))
+    out[pixel, col] = share
+    return out
 
 
-def _shares(acc: Any, pixels: int, n_ids: int) -> np.ndarray:
-    """The accumulated weights as each pixel's shares (rows summing to 1, or 0 if empty)."""
-    table = to_numpy(acc).astype(np.float64).reshape(pixels, n_ids + 1)
-    total = table.sum(axis=1, keepdims=True)
-    return np.divide(table, total, out=np.zeros_like(table), where=total > 0)
+def _shares(
+    acc: Any, first: int, pixels: int, n_ids: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The accumulated weights ``acc`` of ``pixels`` pixels (``pixels x (n_ids + 1)`` cells)
+    as each pixel's shares (summing to 1 over its row, background included): the nonzero
+    cells only, as ``(pixel, column, share)`` with the pixels numbered from ``first``."""
+    nz = dr.compress(acc > 0)
+    cell = to_numpy(nz).astype(np.int64)
+    weight = to_numpy(dr.gather(mi.Float, acc, nz)).astype(np.float64)
+    pixel, col = np.divmod(cell, n_ids + 1)
+    total = np.bincount(pixel, weight, minlength=pixels)
+    return pixel + first, col, weight / total[pixel]
 
 
 def check_cells(width: int, height: int, n_ids: int) -> int:
     """The cells of the coverage table of ``n_ids`` names at ``width x height``, or a
-    :class:`ParameterError` when they are too many (checked before a render starts)."""
-    cells = width * height * (n_ids + 1)
-    if cells > _MAX_CELLS:
+    :class:`ParameterError` when one row of the film has too many (checked before a render
+    starts; :func:`cryptomatte` ranks the film in bands of rows, :data:`BAND_CELLS` at most)."""
+    row = width * (n_ids + 1)
+    if row > _MAX_CELLS:
         raise ParameterError(
-            f"cryptomatte: {width}x{height} pixels x {n_ids + 1} names is too many to rank "
-            f"({cells} cells, at most {_MAX_CELLS})"
+            f"cryptomatte: {width} pixels a row x {n_ids + 1} names is too many to rank "
+            f"({row} cells, at most {_MAX_CELLS})"
         )
-    return cells
+    return width * height * (n_ids + 1)
+
+
+def _reach(rfilter: mi.ReconstructionFilter) -> int:
+    """The pixels a sample reaches on each side of its own (the filter's radius)."""
+    return max(0, math.ceil(float(rfilter.radius()) - 0.5))
 
 
 def _accumulate(
@@ -204,11 +230,13 @@ def _accumulate(
     width: int,
     height: int,
     rfilter: mi.ReconstructionFilter,
+    first_row: int = 0,
 ) -> None:
-    """Add the filter weights of samples ``(x, y, ids)`` to the coverage table ``acc``."""
+    """Add the filter weights of samples ``(x, y, ids)`` to the coverage table ``acc`` of the
+    film's rows ``first_row`` to ``first_row + height`` (those rows' pixels x names)."""
     x, y, ids = mi.Float(x), mi.Float(y), mi.UInt32(ids)
     radius = float(rfilter.radius())
-    reach = max(0, math.ceil(radius - 0.5))  # pixels a sample reaches on each side
+    reach = _reach(rfilter)
     px, py = mi.Int32(dr.floor(x)), mi.Int32(dr.floor(y))
 
     def weight(d: Any) -> Any:
@@ -219,7 +247,7 @@ def _accumulate(
     wy = [weight(y - (mi.Float(py + dy) + 0.5)) for dy in range(-reach, reach + 1)]
     dr.eval(*wx, *wy)
     for j, dy in enumerate(range(-reach, reach + 1)):
-        qy = py + dy
+        qy = py + dy - first_row
         for i, dx in enumerate(range(-reach, reach + 1)):
             qx = px + dx
             wgt = wx[i] * wy[j]
@@ -230,24 +258,37 @@ def _accumulate(
 
 
 def ranked_layers(
-    cov: np.ndarray, id_values: np.ndarray, layer: str, width: int, height: int, levels: int
+    pixel: np.ndarray,
+    col: np.ndarray,
+    share: np.ndarray,
+    id_values: np.ndarray,
+    layer: str,
+    width: int,
+    height: int,
+    levels: int,
 ) -> dict[str, np.ndarray]:
-    """The ``{layer}00`` ... RGBA channels from a coverage table (column 0 = background, not
-    stored): ranks by decreasing coverage, ties by column; empty ranks hold id 0, coverage 0."""
-    fg = cov[:, 1:]
-    k = min(levels, fg.shape[1])
-    order = np.argsort(-fg, axis=1, kind="stable")[:, :k]
-    c = np.take_along_axis(fg, order, axis=1)
-    ids = np.where(c > 0, id_values[order], np.float32(0.0)).astype(np.float32)
+    """The ``{layer}00`` ... RGBA channels from a pixel's shares of each id, given as the
+    nonzero cells ``(pixel, col, share)`` (column 0 = background, not stored; column ``c`` is
+    ``id_values[c - 1]``): ranks by decreasing coverage, ties by column; empty ranks hold id
+    0, coverage 0."""
+    fg = col > 0
+    pixel, col, share = pixel[fg], col[fg], share[fg]
+    order = np.lexsort((col, -share, pixel))
+    pixel, col, share = pixel[order], col[order], share[order]
+    head = np.flatnonzero(np.append(True, pixel[1:] != pixel[:-1]))
+    rank = np.arange(len(pixel)) - np.repeat(head, np.diff(np.append(head, len(pixel))))
+    ranks = 2 * math.ceil(levels / 2)
+    keep = rank < min(levels, ranks)
+    ids = np.zeros((ranks, width * height), np.float32)
+    cov = np.zeros((ranks, width * height), np.float32)
+    ids[rank[keep], pixel[keep]] = id_values[col[keep] - 1]
+    cov[rank[keep], pixel[keep]] = share[keep]
     out: dict[str, np.ndarray] = {}
-    for rank in range(2 * math.ceil(levels / 2)):
-        name = f"{layer}{rank // 2:02d}"
-        chans = ("R", "G") if rank % 2 == 0 else ("B", "A")
-        have = rank < k
-        idv = ids[:, rank] if have else np.zeros(width * height, np.float32)
-        cv = c[:, rank].astype(np.float32) if have else np.zeros(width * height, np.float32)
-        out[f"{name}.{chans[0]}"] = idv.reshape(height, width)
-        out[f"{name}.{chans[1]}"] = cv.reshape(height, width)
+    for r in range(ranks):
+        name = f"{layer}{r // 2:02d}"
+        chans = ("R", "G") if r % 2 == 0 else ("B", "A")
+        out[f"{name}.{chans[0]}"] = ids[r].reshape(height, width)
+        out[f"{name}.{chans[1]}"] = cov[r].reshape(height, width)
     return out
 
 
@@ -262,6 +303,14 @@ def cryptomatte(
 
     ``spp`` defaults to the sensor's sample count; ``levels`` is the number of ranks kept per
     pixel (rounded up to even: two per RGBA layer).
+
+    **Memory.** The coverage of a band of rows is accumulated densely (its pixels x names, at
+    most :data:`BAND_CELLS` cells, a row at least), from the samples of its rows and of the
+    rows the filter reaches from beyond it, cast in passes of at most
+    :data:`SAMPLES_PER_PASS`; only its nonzero cells are kept. A film whose table fits one
+    band is one band (no samples cast twice); in a film of several bands the samples of the
+    rows along a band's edge are drawn once for each of the two bands (other random numbers,
+    the same estimator).
     """
     if not isinstance(levels, int) or isinstance(levels, bool) or levels < 1:
         raise ParameterError(f"cryptomatte: levels = {levels!r}: must be a positive integer")
@@ -277,31 +326,43 @@ def cryptomatte(
     table = object_table(scene)
     rfilter = sensor.film().rfilter()
     n_obj = len(table.names)
-    acc = dr.zeros(mi.Float, check_cells(w, h, n_obj))
-    # In passes of at most SAMPLES_PER_PASS samples (k per pixel each), so the samples' rays
-    # and hits never take more memory than a pass's: pass 0 keeps ``seed``, so a render that
-    # fits one pass is the same as unpassed.
-    k = max(1, min(spp, SAMPLES_PER_PASS // (w * h)))
-    for p, start in enumerate(range(0, spp, k)):
-        n = min(k, spp - start)
-        xs, ys, obj = _samples(scene, sensor, table, n, (seed + p * _PASS_SEED_STEP) % 2**32)
-        _accumulate(acc, xs, ys, obj, n_obj, w, h, rfilter)
-        del xs, ys, obj
-        dr.flush_malloc_cache()  # Dr.Jit keeps freed buffers for reuse: give the pass's back
-    cov_obj = _shares(acc, w * h, n_obj)
+    check_cells(w, h, n_obj)
+    band = max(1, min(h, BAND_CELLS // (w * (n_obj + 1))))
+    reach = _reach(rfilter) if band < h else 0
+    cells, p = [], 0
+    for r0 in range(0, h, band):
+        r1 = min(h, r0 + band)
+        s0, s1 = max(0, r0 - reach), min(h, r1 + reach)  # the rows whose samples reach it
+        acc = dr.zeros(mi.Float, (r1 - r0) * w * (n_obj + 1))
+        # In passes of at most SAMPLES_PER_PASS samples (k per pixel each), so the samples'
+        # rays and hits never take more memory than a pass's: pass 0 keeps ``seed``, so a
+        # render that fits one pass and one band is the same as one cast of every sample.
+        k = max(1, min(spp, SAMPLES_PER_PASS // (w * (s1 - s0))))
+        for start in range(0, spp, k):
+            n = min(k, spp - start)
+            pass_seed = (seed + p * _PASS_SEED_STEP) % 2**32
+            xs, ys, obj = _samples(scene, sensor, table, n, pass_seed, (s0, s1))
+            _accumulate(acc, xs, ys, obj, n_obj, w, r1 - r0, rfilter, r0)
+            del xs, ys, obj
+            p += 1
+        cells.append(_shares(acc, r0 * w, (r1 - r0) * w, n_obj))
+        del acc
+        dr.flush_malloc_cache()  # Dr.Jit keeps freed buffers for reuse: give the band's back
+    pixel, col, share = (np.concatenate(c) for c in zip(*cells, strict=True))
     obj_names = [table.names[k] for k in range(1, n_obj + 1)]
     obj_ids = np.array([name_id(n) for n in obj_names], np.float32)
-    layers = ranked_layers(cov_obj, obj_ids, OBJECT, w, h, levels)
-    # Materials: the objects' columns summed per BSDF name (one shared BSDF, one matte).
+    layers = ranked_layers(pixel, col, share, obj_ids, OBJECT, w, h, levels)
+    # Materials: the objects' shares summed per BSDF name (one shared BSDF, one matte).
     mats = material_names(table)
     mat_names = sorted(set(mats.values()))
-    col = np.zeros(n_obj + 1, np.int64)
+    to_mat = np.zeros(n_obj + 1, np.int64)
     for oid, name in mats.items():
-        col[oid] = 1 + mat_names.index(name)
-    cov_mat = np.zeros((w * h, len(mat_names) + 1), np.float64)
-    np.add.at(cov_mat.T, col, cov_obj.T)
+        to_mat[oid] = 1 + mat_names.index(name)
+    key, inverse = np.unique(pixel * (len(mat_names) + 1) + to_mat[col], return_inverse=True)
+    mat_pixel, mat_col = np.divmod(key, len(mat_names) + 1)
+    mat_share = np.bincount(inverse.ravel(), share, minlength=len(key))
     mat_ids = np.array([name_id(n) for n in mat_names], np.float32)
-    layers.update(ranked_layers(cov_mat, mat_ids, MATERIAL, w, h, levels))
+    layers.update(ranked_layers(mat_pixel, mat_col, mat_share, mat_ids, MATERIAL, w, h, levels))
     meta = {**metadata(OBJECT, obj_names), **metadata(MATERIAL, mat_names)}
     meta["mi_npr/cryptomatte"] = json.dumps({"spp": spp, "seed": seed, "levels": levels})
     return layers, meta
