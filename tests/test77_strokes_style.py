@@ -16,7 +16,7 @@ import pytest
 import mi_npr
 from mi_npr.drawings import DRAWINGS
 from mi_npr.errors import ParameterError
-from mi_npr.strokes import Stroke, Strokes, extract_strokes
+from mi_npr.strokes import Stroke, Strokes, extract_strokes, raster
 from mi_npr.strokes.raster import dash_pieces, rasterize
 from mi_npr.strokes.style import STYLES, make_style, style_of
 
@@ -196,7 +196,13 @@ def _raster_by_hand(strokes: Strokes, style) -> tuple[np.ndarray, np.ndarray]:
     return alpha, ink
 
 
-def test10_the_raster_agrees_with_the_rules_pixel_by_pixel():
+@pytest.mark.parametrize("small", [False, True])
+def test10_the_raster_agrees_with_the_rules_pixel_by_pixel(small, monkeypatch):
+    """Against the rules stroke by stroke; ``small``: in blocks of 3 strokes and batches of
+    64 pixel tests (the memory bounds of a large drawing), the same raster."""
+    if small:
+        monkeypatch.setattr(raster, "BLOCK", 3)
+        monkeypatch.setattr(raster, "CHUNK", 64)
     rng = np.random.default_rng(11)
     styles = [
         style_of("technical"),

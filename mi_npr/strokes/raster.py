@@ -173,8 +173,10 @@ def _capsules(
     return key // (width * height), key % (width * height), cov
 
 
-#: Pixel tests per batch of :func:`_capsules` (memory bound).
-CHUNK = 1 << 20
+#: Pixel tests per batch of :func:`_capsules` (memory bound: some 20 float64 temporaries each).
+CHUNK = 1 << 18
+#: Strokes rasterised at once by :func:`rasterize` (memory bound: their covered pixels).
+BLOCK = 1 << 10
 
 
 def _coverage(
@@ -239,22 +241,26 @@ def rasterize(strokes: Strokes, style: Style) -> tuple[np.ndarray, np.ndarray]:
     alpha = np.zeros(h * w)
     ink = np.zeros((h * w, 3))
     drawn = [s for s in strokes if style.drawn(s)]
-    stroke, idx, a = _coverage(drawn, style, strokes.depth_range, w, h)
-    if not len(idx):
-        return alpha.reshape(h, w).astype(np.float32), ink.reshape(h, w, 3).astype(np.float32)
-    col = np.asarray([style.kind_color(s) for s in drawn], np.float64).reshape(-1, 3)
-    # strokes laid in order: per pixel, its strokes one level at a time (the k-th stroke over
-    # each pixel at level k), every pixel of a level at once
-    order = np.lexsort((stroke, idx))
-    stroke, idx, a = stroke[order], idx[order], a[order]
-    head = np.flatnonzero(np.append(True, idx[1:] != idx[:-1]))
-    level = np.arange(len(idx)) - np.repeat(head, np.diff(np.append(head, len(idx))))
-    by_level = np.argsort(level, kind="stable")
-    cut = np.searchsorted(level[by_level], np.arange(1, int(level.max()) + 1))
-    for sel in np.split(by_level, cut):
-        i, c = idx[sel], a[sel]
-        alpha[i] = alpha[i] * (1.0 - c) + c
-        ink[i] = ink[i] * (1.0 - c)[:, None] + col[stroke[sel]] * c[:, None]
+    # a block of strokes at a time, in order (memory: the block's covered pixels): each
+    # pixel gets the same strokes in the same order as from all at once
+    for b in range(0, len(drawn), BLOCK):
+        block = drawn[b : b + BLOCK]
+        stroke, idx, a = _coverage(block, style, strokes.depth_range, w, h)
+        if not len(idx):
+            continue
+        col = np.asarray([style.kind_color(s) for s in block], np.float64).reshape(-1, 3)
+        # strokes laid in order: per pixel, its strokes one level at a time (the k-th stroke
+        # over each pixel at level k), every pixel of a level at once
+        order = np.lexsort((stroke, idx))
+        stroke, idx, a = stroke[order], idx[order], a[order]
+        head = np.flatnonzero(np.append(True, idx[1:] != idx[:-1]))
+        level = np.arange(len(idx)) - np.repeat(head, np.diff(np.append(head, len(idx))))
+        by_level = np.argsort(level, kind="stable")
+        cut = np.searchsorted(level[by_level], np.arange(1, int(level.max()) + 1))
+        for sel in np.split(by_level, cut):
+            i, c = idx[sel], a[sel]
+            alpha[i] = alpha[i] * (1.0 - c) + c
+            ink[i] = ink[i] * (1.0 - c)[:, None] + col[stroke[sel]] * c[:, None]
     return alpha.reshape(h, w).astype(np.float32), ink.reshape(h, w, 3).astype(np.float32)
 
 
