@@ -48,6 +48,7 @@ from .scene import merge_defines
 from .session import SceneSession
 from .strokes import Strokes, extract_strokes
 from .strokes.drawing import StrokeDrawing, depth_range_of
+from .strokes.intersect import touching_pairs
 from .strokes.style import make_style
 
 
@@ -244,7 +245,10 @@ def lines_as_strokes(
     :func:`line_kinds`, of the objects that ``only`` and ``ignore`` select (a stroke's object:
     that of its first vertex). The strokes of ``drawn`` (the ``strokes`` drawing of the same
     render) are reused when they were extracted at the same crease angle, or creases are off;
-    extracted here, they carry no ``depth_behind`` (the layer's style never reads it).
+    extracted here, they carry no ``depth_behind`` (the layer's style never reads it), and the
+    intersection lines are looked for only between meshes whose pixels touch in the G-buffer's
+    object ids (:func:`~mi_npr.strokes.intersect.touching_pairs`; a visible line runs between
+    them).
     **How**: ``line_width`` px wide, in ``line_color``, opaque: the ID edges and creases of the
     lines are drawn at full strength, and an outline always has a depth step or an ID change, so
     an opaque stroke is what the PNG shows, except where eq. 5.1 fades a depth step too small for
@@ -269,6 +273,8 @@ def lines_as_strokes(
                 max_qi=0,  # the visible strokes alone: no ray past the first surface
                 depth_range=depth_range_of(z) if z is not None else None,
                 depth_behind=False,  # the layer's style has no gray: never read
+                # the intersection lines of the meshes whose pixels touch: the visible ones
+                intersect=touching_pairs(gb.numpy(L.OBJECT_ID)) if L.OBJECT_ID in gb else None,
             )
         except ParameterError:  # a camera the strokes refuse: every line pixel is traced
             strokes = Strokes([], gb.width, gb.height, dict(session.objects.names))

@@ -222,3 +222,117 @@ def test07_a_sphere_sunk_into_a_mesh_cuts_its_top_face(tmp_path):
     inner, ends = _on_curve(cut, ring)
     assert inner < 0.05 and ends < 1.0
     assert sum(s.length() for s in cut) > 20.0
+
+
+def test08_a_search_of_some_pairs_is_the_full_search_of_those_pairs():
+    """``intersections(..., pairs)``: exactly the segments of the full search whose faces'
+    objects are one of the pairs asked for (either order; a pair of one object, or with an id
+    that has no faces, asks for nothing)."""
+    from mi_npr.strokes.intersect import intersections
+
+    rng = np.random.default_rng(5)
+    v, f, oid, _ = _soup(rng, 7, 25)
+    full = intersections(v, f, oid)
+    key = oid[full[2]] * 100 + oid[full[3]]
+    assert len(np.unique(key)) > 6
+    for asked in ([[1, 2]], [[4, 0], [2, 5], [3, 3], [6, 99]], np.zeros((0, 2)), [[6, 1]]):
+        a = np.sort(np.asarray(asked, np.int64).reshape(-1, 2), axis=1)
+        rows = np.isin(key, a[:, 0] * 100 + a[:, 1])
+        got = intersections(v, f, oid, np.asarray(asked))
+        for x, y in zip(got, full, strict=True):
+            np.testing.assert_array_equal(x, y[rows])
+
+
+def test09_touching_pairs_against_every_pixel_pair():
+    """The pairs of ids side by side or corner to corner, against a loop over every pixel and
+    its 8 neighbours; background (0) touches nothing; 1x1, one row, one column."""
+    from mi_npr.strokes.intersect import touching_pairs
+
+    rng = np.random.default_rng(2)
+    images = [np.zeros((1, 1), np.uint32), np.array([[3, 0, 4, 4, 1]], np.uint32)]
+    images += [np.array([[2], [2], [5]], np.uint32), np.zeros((4, 6), np.uint32)]
+    images += [rng.integers(0, 6, (h, w)).astype(np.uint32) for h, w in ((7, 5), (9, 12))]
+    for ids in images:
+        want = set()
+        h, w = ids.shape
+        for y in range(h):
+            for x in range(w):
+                for dy in (-1, 0, 1):
+                    for dx in (-1, 0, 1):
+                        yy, xx = y + dy, x + dx
+                        if 0 <= yy < h and 0 <= xx < w:
+                            a, b = int(ids[y, x]), int(ids[yy, xx])
+                            if a and b and a != b:
+                                want.add((min(a, b), max(a, b)))
+        got = touching_pairs(ids)
+        assert got.shape == (len(want), 2)
+        assert [tuple(p) for p in got.tolist()] == sorted(want)
+
+
+THREE = (
+    '<shape type="cube" id="a"><transform name="to_world">'
+    f'<scale value="0.8"/>{COMMON}</transform></shape>'
+    '<shape type="cube" id="b"><transform name="to_world"><scale x="0.9" y="0.3" z="0.3"/>'
+    f'<translate x="0.9"/>{COMMON}</transform></shape>'
+    '<shape type="cube" id="c"><transform name="to_world"><scale x="0.3" y="0.9" z="0.3"/>'
+    f'<translate x="0.6" y="0.5"/>{COMMON}</transform></shape>'
+)
+
+
+def test10_pairs_searched_on_demand_give_the_same_lines_in_any_order(tmp_path):
+    """Three boxes cutting each other: a view asking for some pairs gets the segments and
+    end nodes of those pairs in the full search, whatever the topology searched before; a
+    view asking for every pair after partial searches gets the full search's rows."""
+    from mi_npr.scene import object_table
+    from mi_npr.strokes import edges as E
+
+    table = object_table(load(tmp_path, THREE))
+    ids = {n: k for k, n in table.names.items()}
+    ab, bc, ac = ([ids[x], ids[y]] for x, y in ("ab", "bc", "ac"))
+    origin = np.array([0.0, 0.0, 0.0])
+
+    def rows(view):
+        edges = view.take(slice(len(view.edge), len(view)))
+        return edges.a, edges.b, edges.va, edges.vb, edges.faces
+
+    def fresh(pairs):
+        E._LAST[0] = None
+        return rows(E.view_edges(table, origin, intersect=pairs))
+
+    full = fresh(True)
+    pair_of = {tuple(sorted(r)) for r in full[4][:, :, 0].tolist()}
+    assert pair_of == {tuple(sorted(p)) for p in (ab, bc, ac)}  # each pair cuts
+    for asked in ([ab], [bc, ac], [ac, ab, bc]):
+        want = fresh(np.array(asked))
+        assert len(want[0]) > 0
+        for before in ([bc], [ab, ac], True):
+            E._LAST[0] = None
+            E.view_edges(table, origin, intersect=np.array(before) if before is not True else True)
+            got = rows(E.view_edges(table, origin, intersect=np.array(asked)))
+            for x, y in zip(got, want, strict=True):
+                np.testing.assert_array_equal(x, y)
+    E._LAST[0] = None
+    E.view_edges(table, origin, intersect=np.array([bc]))
+    for x, y in zip(rows(E.view_edges(table, origin)), full, strict=True):
+        np.testing.assert_array_equal(x, y)
+    assert len(rows(E.view_edges(table, origin, intersect=False))[0]) == 0
+
+
+def test11_the_lines_drawing_finds_the_visible_intersection_lines(tmp_path):
+    """The lines drawing's strokes look only at the meshes whose pixels touch: its
+    intersection strokes are the visible ones of a full extraction."""
+    import mi_npr
+    from mi_npr import pipeline
+
+    scene_path = tmp_path / "scene.xml"
+    load(tmp_path, THREE)  # writes scene.xml
+    out = pipeline.render_layers(scene_path, ("lines",), {}, spp=1)
+    layer = out.strokes[next(k for k in out.strokes if "lines" in k)]
+    got = [s for s in layer.strokes if s.kind == "intersection"]
+    scene = mi_npr.load_scene(scene_path)
+    full = extract_strokes(scene, scene.sensors()[0], max_qi=0)
+    want = [s for s in full if s.kind == "intersection" and s.qi == 0]
+    assert len(want) >= 2
+    assert len(got) == len(want)
+    for a, b in zip(got, want, strict=True):
+        np.testing.assert_allclose(a.points, b.points, atol=1e-9)

@@ -27,7 +27,10 @@ only classifies the edges (``O(E)`` array operations).
 
 5. ``intersection``: where triangles of two different meshes cut each other
    (:mod:`mi_npr.strokes.intersect`); these edges are not mesh edges: their ends are nodes of
-   their own, welded among themselves.
+   their own, welded among those of the same pair of objects (a line is chained within its
+   pair: where the lines of two pairs meet, each ends). A pair of objects is searched the
+   first time a view asks for it (:meth:`Topology.search`; every pair, or those that a view's
+   image shows side by side) and kept with the topology.
 
 Other edges (smooth, coplanar) are not drawn. Each edge is drawn with one face, the one that
 *faces the camera more* (the smaller ``n . (a - o) / (|n| |a - o|)``; for a silhouette, the
@@ -265,6 +268,54 @@ def _group_edges(
     return keys, counts, f0, f1, flip
 
 
+def _asked_keys(pairs: np.ndarray, n_keys: int) -> np.ndarray:
+    """The sorted unique keys (:meth:`Topology.pair_keys`) of the object pairs ``pairs`` (K, 2)
+    whose objects are two different meshes' (ids below ``n_keys``)."""
+    a = np.sort(np.asarray(pairs, np.int64).reshape(-1, 2), axis=1)
+    a = a[(a[:, 0] != a[:, 1]) & (a[:, 0] >= 0) & (a[:, 1] < n_keys)]
+    return np.unique(a[:, 0] * n_keys + a[:, 1])
+
+
+def _crossings(
+    v: np.ndarray,
+    f: np.ndarray,
+    face_oid: np.ndarray,
+    size: float,
+    keys: np.ndarray | None,
+    n_keys: int,
+) -> tuple[np.ndarray, ...]:
+    """The intersection segments of the object pairs ``keys`` (:func:`_asked_keys`; ``None``:
+    every pair) of the soup ``v``, ``f``, ``face_oid``, as :attr:`Topology.crossings`: their
+    ends welded (``WELD * size``) within each pair of objects into nodes numbered from 0 in
+    the order the ends come (``p`` before ``q``); a segment whose ends weld is left out."""
+    pairs = None if keys is None else np.stack(np.divmod(keys, n_keys), 1)
+    p, q, fa, fb = intersections(v, f, face_oid, pairs)
+    zi = np.zeros(0, np.int32)
+    if not len(p):
+        return p, q, zi, zi, zi, zi
+    key = face_oid[fa].astype(np.int64) * n_keys + face_oid[fb]
+    block = np.cumsum(np.append(True, key[1:] != key[:-1])) - 1
+    # one weld for all pairs, each pair's ends moved along x past every other pair's
+    lo = np.minimum(p.min(0), q.min(0))
+    span = float(np.max(np.maximum(p.max(0), q.max(0)) - lo)) + 1.0
+    ends = np.empty((2 * len(p), 3))
+    ends[0::2], ends[1::2] = p - lo, q - lo
+    ends[:, 0] += np.repeat(block * (2.0 * span), 2)
+    node = weld(ends, WELD * size)
+    del ends
+    # numbered in the order the ends come: a pair's nodes are then a run starting at its first
+    _, first_at, inv = np.unique(node, return_index=True, return_inverse=True)
+    rank = np.empty(len(first_at), np.int64)
+    rank[np.argsort(first_at, kind="stable")] = np.arange(len(first_at))
+    node = rank[inv.ravel()]
+    start = np.flatnonzero(np.append(True, block[1:] != block[:-1]))
+    node -= np.repeat(node[2 * start], 2 * np.diff(np.append(start, len(p))))
+    la, lb = node[0::2].astype(np.int32), node[1::2].astype(np.int32)
+    keep = la != lb
+    fa, fb = fa[keep].astype(np.int32), fb[keep].astype(np.int32)
+    return p[keep], q[keep], fa, fb, la[keep], lb[keep]
+
+
 @dataclass(eq=False)
 class Topology:
     """What of the feature edges does not depend on the camera, kept small (a scene's meshes
@@ -276,9 +327,11 @@ class Topology:
     meshes); per welded edge (E) its ends ``keys`` (E, 2), its face count ``counts`` (3: three
     or more), its first two faces ``f0``, ``f1`` (``f1 = f0`` with one face) and ``flip`` (the
     two faces wind the edge the same way: ``f1``'s normal is turned for it); and the
-    intersection segments ``crossings`` (:func:`~mi_npr.strokes.intersect.intersections`: ends
-    ``p``, ``q``, faces ``fa``, ``fb``, end nodes ``va``, ``vb``). The vertex positions and
-    faces themselves are not kept."""
+    intersection segments ``crossings`` of the pairs of objects searched so far (``searched``:
+    their keys :meth:`pair_keys`, sorted; ``None``: every pair) (ends ``p``, ``q``, faces
+    ``fa``, ``fb`` (``fa``'s object the lower id), end nodes ``la``, ``lb`` numbered within the
+    pair of objects; the segments of a pair together, the pairs in increasing keys). The
+    vertex positions and faces themselves are not kept."""
 
     face_oid: np.ndarray
     first_face: np.ndarray
@@ -292,21 +345,23 @@ class Topology:
     f1: np.ndarray
     flip: np.ndarray
     crossings: tuple[np.ndarray, ...]
+    searched: np.ndarray | None = None
     _kinds: dict = field(default_factory=dict)
     #: Views classified so far (:func:`view_edges`).
     views: int = 0
 
     @classmethod
-    def of(cls, table: ObjectTable) -> Topology:
+    def of(cls, table: ObjectTable, pairs: np.ndarray | None = None) -> Topology:
         """The topology of the meshes of ``table`` (their triangle soup, :func:`mesh_arrays`;
-        class docstring). Built in the order that keeps the fewest arrays alive at once: the
-        intersections first (from the soup alone), the normals, then the edges (from the faces
-        alone)."""
+        class docstring), with the intersection lines of the object pairs ``pairs`` ((K, 2)
+        object ids; default every pair). Built in the order that keeps the fewest arrays alive
+        at once: the intersections first (from the soup alone), the normals, then the edges
+        (from the faces alone)."""
         v, f, face_oid = mesh_arrays(table)
         z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
         if len(f) == 0:
             zi = z.astype(np.int32)
-            crossings = (z3, z3, zi, zi, z, z)
+            crossings = (z3, z3, zi, zi, zi, zi)
             return cls(
                 zi,
                 z,
@@ -325,20 +380,14 @@ class Topology:
         first_face = np.zeros(int(face_oid.max()) + 1, np.int64)
         first_face[face_oid[heads]] = heads
         size = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
+        n_keys = len(first_face)
+        asked = None if pairs is None else _asked_keys(pairs, n_keys)
         # one after the other, not side by side: the two searches' temporaries would add up
-        p, q, fa, fb = intersections(v, f, face_oid)
+        crossings = _crossings(v, f, face_oid, size, asked, n_keys)
         release_freed_memory()
         wid = weld(v, WELD * size).astype(np.int32)
         release_freed_memory()
         n_welded = int(wid.max()) + 1
-        # the crossings' ends welded into nodes of their own, numbered after the vertices
-        node = weld(np.concatenate([p, q]), WELD * size) + n_welded
-        va, vb = node[: len(p)], node[len(p) :]
-        keep = va != vb
-        crossings = (p[keep], q[keep], fa[keep].astype(np.int32), fb[keep].astype(np.int32))
-        crossings += (va[keep], vb[keep])
-        del p, q, fa, fb, node, va, vb, keep
-        release_freed_memory()
         rep = np.zeros(n_welded, np.int64)
         rep[wid[::-1]] = np.arange(len(wid))[::-1]
         welded = v[rep]
@@ -371,7 +420,58 @@ class Topology:
             f1,
             flip,
             crossings,
+            asked,
         )
+
+    def pair_keys(self, fa: np.ndarray, fb: np.ndarray) -> np.ndarray:
+        """The key of the pair of objects of faces ``fa``, ``fb`` (``fa``'s the lower id):
+        ``oid_a * K + oid_b``, ``K`` one past the largest object id of a face."""
+        return self.face_oid[fa].astype(np.int64) * len(self.first_face) + self.face_oid[fb]
+
+    def search(self, table: ObjectTable, pairs: np.ndarray | None = None) -> None:
+        """Add the intersection lines of the object pairs ``pairs`` ((K, 2) object ids; default
+        every pair) not searched yet, from the meshes of ``table`` (the ones this topology was
+        built from): their segments go in among the others, in the order of their keys."""
+        if self.searched is None:
+            return
+        n_keys = len(self.first_face)
+        asked = None if pairs is None else _asked_keys(pairs, n_keys)
+        todo = asked if asked is None else np.setdiff1d(asked, self.searched)
+        if todo is not None and len(todo) == 0:
+            return
+        v, f, face_oid = mesh_arrays(table)
+        new = _crossings(v, f, face_oid, self.size, todo, n_keys)
+        del v, f, face_oid
+        if todo is None:  # every pair: the search holds the ones made before
+            self.crossings, self.searched = new, None
+            return
+        both = tuple(np.concatenate(x) for x in zip(self.crossings, new, strict=True))
+        order = np.argsort(self.pair_keys(both[2], both[3]), kind="stable")
+        self.crossings = tuple(x[order] for x in both)
+        self.searched = np.union1d(self.searched, todo)
+
+    def crossing_rows(
+        self, pairs: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The rows of ``crossings`` of the object pairs ``pairs`` ((K, 2) object ids; default
+        every pair searched) and their ends' node ids, numbered after the welded vertices,
+        pair after pair: ``(rows, va, vb)``. The same pairs give the same nodes whatever was
+        searched before."""
+        _, _, fa, fb, la, lb = self.crossings
+        key = self.pair_keys(fa, fb)
+        if pairs is None:
+            rows = np.arange(len(key))
+        else:
+            rows = np.flatnonzero(np.isin(key, _asked_keys(pairs, len(self.first_face))))
+        if not len(rows):
+            z = np.zeros(0, np.int64)
+            return z, z, z
+        key, la, lb = key[rows], la[rows], lb[rows]
+        head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
+        nodes = np.maximum.reduceat(np.maximum(la, lb), head).astype(np.int64) + 1
+        first = len(self.welded) + np.cumsum(nodes) - nodes
+        base = np.repeat(first, np.diff(np.append(head, len(key))))
+        return rows, base + la, base + lb
 
     def prim(self, faces: np.ndarray) -> np.ndarray:
         """The primitive index of each face (its position among its object's faces)."""
@@ -421,11 +521,13 @@ class Topology:
 _LAST: list = [None]
 
 
-def topology(table: ObjectTable) -> Topology:
+def topology(table: ObjectTable, pairs: np.ndarray | None = None) -> Topology:
     """The :class:`Topology` of every mesh in ``table``, kept for the next call while the
     meshes' vertex and face buffers are the same Dr.Jit arrays: a mesh whose positions are
     updated (``mi.traverse``) gets a new buffer, hence a new topology. The cached entry holds
-    the buffers it was built from so that their Dr.Jit indices are not reused meanwhile."""
+    the buffers it was built from so that their Dr.Jit indices are not reused meanwhile.
+    ``pairs``: the object pairs whose intersection lines a new topology starts with
+    (:meth:`Topology.of`; a kept one adds others when asked, :meth:`Topology.search`)."""
     buffers, key = [], []
     for oid in sorted(table.shapes):
         shape = table.shapes[oid]
@@ -438,7 +540,7 @@ def topology(table: ObjectTable) -> Topology:
     if entry is not None and entry[0] == key_t:
         return entry[2]
     entry = _LAST[0] = None  # the old one's memory first
-    topo = Topology.of(table)
+    topo = Topology.of(table, pairs)
     release_freed_memory()
     _LAST[0] = (key_t, buffers, topo)
     return topo
@@ -447,7 +549,8 @@ def topology(table: ObjectTable) -> Topology:
 class ViewEdges:
     """The feature edges of one view (module docstring), their rows made on demand
     (:meth:`take`): the mesh edges ``edge`` (indices into the :class:`Topology`'s edges) with
-    their ``kind`` and drawn ``face``, then the intersection segments with their drawn face
+    their ``kind`` and drawn ``face``, then the intersection segments ``cross`` (rows of the
+    topology's ``crossings``) with their end nodes ``cross_va``, ``cross_vb`` and drawn face
     ``cross_face``. The full rows of a large model's edges would take ~100 bytes each at once;
     these take ~10. ``first``: the first view of its topology (a one-off extraction, whose
     memory peak counts, rather than one of many views of a scene, which reuse each other's
@@ -459,21 +562,23 @@ class ViewEdges:
         edge: np.ndarray,
         kind: np.ndarray,
         face: np.ndarray,
-        cross_face: np.ndarray,
+        cross: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
         first: bool = False,
     ) -> None:
         self.topo, self.edge, self.kind, self.face = topo, edge, kind, face
-        self.cross_face, self.first = cross_face, first
+        z = np.zeros(0, np.int64)
+        self.cross, self.cross_va, self.cross_vb, self.cross_face = cross or (z, z, z, z)
+        self.first = first
 
     def __len__(self) -> int:
-        return len(self.edge) + len(self.cross_face)
+        return len(self.edge) + len(self.cross)
 
     def max_node(self) -> int:
         """The largest node id of the edges' ends (-1 for none)."""
         t = self.topo
         m = int(t.keys[self.edge].max(initial=-1)) if len(self.edge) else -1
-        if len(self.cross_face):
-            m = max(m, int(t.crossings[4].max()), int(t.crossings[5].max()))
+        if len(self.cross):
+            m = max(m, int(self.cross_va.max()), int(self.cross_vb.max()))
         return m
 
     def take(self, rows: slice) -> FeatureEdges:
@@ -508,8 +613,9 @@ class ViewEdges:
             )
         if stop > n_mesh:
             x = slice(max(start, n_mesh) - n_mesh, stop - n_mesh)
-            p, q, fa, fb, va, vb = (c[x] for c in t.crossings)
-            face = self.cross_face[x]
+            rows = self.cross[x]
+            p, q, fa, fb = (c[rows] for c in t.crossings[:4])
+            va, vb, face = self.cross_va[x], self.cross_vb[x], self.cross_face[x]
             oid = t.face_oid
             faces = np.stack(
                 [np.stack([oid[fa], t.prim(fa)], 1), np.stack([oid[fb], t.prim(fb)], 1)], 1
@@ -535,17 +641,23 @@ def view_edges(
     table: ObjectTable,
     origin: np.ndarray,
     crease_angle: float = 134.0,
-    intersect: bool = True,
+    intersect: bool | np.ndarray = True,
     direction: np.ndarray | None = None,
 ) -> ViewEdges:
     """The feature edges of every mesh in ``table`` seen from ``origin`` (module docstring),
-    with the ``intersection`` lines between different meshes when ``intersect``, their rows
-    made on demand (:class:`ViewEdges`); ``direction``: the view axis of an orthographic
-    camera, whose rays are parallel (a face is front-facing where ``n . direction < 0``)."""
-    topo = topology(table)
+    with the ``intersection`` lines between different meshes when ``intersect`` (``True``:
+    every pair of meshes; an array (K, 2) of object ids: those pairs), their rows made on
+    demand (:class:`ViewEdges`); ``direction``: the view axis of an orthographic camera, whose
+    rays are parallel (a face is front-facing where ``n . direction < 0``)."""
+    pairs = None
+    if not isinstance(intersect, bool):
+        pairs = np.asarray(intersect, np.int64).reshape(-1, 2)
+    elif not intersect:
+        pairs = np.zeros((0, 2), np.int64)
+    topo = topology(table, pairs)
     zi = np.zeros(0, np.int64)
     if len(topo.face_oid) == 0:
-        return ViewEdges(topo, zi, zi.astype(np.int8), zi, zi)
+        return ViewEdges(topo, zi, zi.astype(np.int8), zi)
     first = topo.views == 0
     topo.views += 1
     d = topo.facing(origin, direction)
@@ -570,22 +682,24 @@ def view_edges(
         parts["kind"].append(kind[e])
     del neg, pos
     e, kind, face = (np.concatenate(parts[k]) for k in ("e", "kind", "face"))
-    cross_face = zi
-    if intersect:
+    cross = None
+    if pairs is None or len(pairs):
+        topo.search(table, pairs)
+        rows, va, vb = topo.crossing_rows(pairs)
         # each end lies on both planes: the plane's facing value there is the face's
-        _, _, fa, fb, _, _ = topo.crossings
-        cross_face = np.where(d[fb] < d[fa], fb, fa)
+        fa, fb = topo.crossings[2][rows], topo.crossings[3][rows]
+        cross = (rows, va, vb, np.where(d[fb] < d[fa], fb, fa))
     del d, parts
     if first:
         release_freed_memory()  # the temporaries over every face and edge
-    return ViewEdges(topo, e, kind, face, cross_face, first)
+    return ViewEdges(topo, e, kind, face, cross, first)
 
 
 def feature_edges(
     table: ObjectTable,
     origin: np.ndarray,
     crease_angle: float = 134.0,
-    intersect: bool = True,
+    intersect: bool | np.ndarray = True,
     direction: np.ndarray | None = None,
 ) -> FeatureEdges:
     """The feature edges of every mesh in ``table`` seen from ``origin`` (module docstring),

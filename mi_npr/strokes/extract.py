@@ -579,6 +579,22 @@ def _depth_range(value: Any) -> tuple[float, float]:
     return lo, hi
 
 
+def _pairs(value: Any) -> np.ndarray:
+    """``intersect`` checked: pairs of object ids, an integer array (K, 2) >= 0."""
+    try:
+        a = np.asarray(value)
+        ok = a.ndim == 2 and a.shape[1] == 2
+        ok = ok and (a.size == 0 or (np.issubdtype(a.dtype, np.integer) and bool((a >= 0).all())))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ParameterError(
+            f"extract_strokes: intersect = {shown(value)}: expected pairs of object ids, "
+            "integers >= 0 of shape (K, 2)"
+        )
+    return a.astype(np.int64)
+
+
 def extract_strokes(
     scene: mi.Scene,
     sensor: mi.Sensor,
@@ -593,6 +609,7 @@ def extract_strokes(
     params: Mapping[str, Any] | None = None,
     resample: float | None = None,
     depth_behind: bool = True,
+    intersect: np.ndarray | None = None,
 ) -> Strokes:
     """Every stroke of ``scene`` seen by ``sensor`` (module docstring). ``table``: the scene's
     object table (built if not given); ``depth_range``: the frame's nearest and farthest finite
@@ -605,7 +622,10 @@ def extract_strokes(
     trees whose reflection, refraction and shadow lines are added (:mod:`~mi_npr.strokes.raytree`;
     0: none; the hard-shadow lights); ``depth_behind``: sample each vertex's
     ``Stroke.depth_behind`` (two rays a vertex; ``False`` leaves it ``None``, for a use that
-    never reads it, such as a style without ``gray``). Parameters as in :data:`EXTRACT_PARAMS`."""
+    never reads it, such as a style without ``gray``); ``intersect``: the pairs of meshes
+    ((K, 2) object ids) whose intersection lines are looked for (default every pair; those a
+    view's id image shows side by side, :func:`~mi_npr.strokes.intersect.touching_pairs`, for
+    its visible lines). Parameters as in :data:`EXTRACT_PARAMS`."""
     crease_angle = _arg("crease_angle", crease_angle)
     chain_angle = _arg("chain_angle", chain_angle)
     max_qi = _arg("max_qi", max_qi)
@@ -616,11 +636,17 @@ def extract_strokes(
         isinstance(resample, (int, float)) and not isinstance(resample, bool) and resample > 0
     ):
         raise ParameterError(f"extract_strokes: resample = {shown(resample)}: must be > 0 px")
+    if intersect is not None:
+        intersect = _pairs(intersect)
     table = table if table is not None else object_table(scene)
     proj = Projector(sensor)
     camera = proj.camera
     edges = view_edges(
-        table, proj.origin, crease_angle, direction=proj.forward if proj.ortho else None
+        table,
+        proj.origin,
+        crease_angle,
+        intersect=True if intersect is None else intersect,
+        direction=proj.forward if proj.ortho else None,
     )
     first = edges.first
     strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)

@@ -34,6 +34,23 @@ GRID = 64
 CHUNK = 1 << 14
 
 
+def touching_pairs(ids: np.ndarray) -> np.ndarray:
+    """The pairs of different nonzero ids that touch in an id image ``ids`` (H, W) (two pixels
+    side by side or corner to corner): (K, 2), the lower id first, sorted. A visible
+    intersection line of two objects runs between their pixels, so these are the pairs whose
+    lines a view can show (one shorter than a pixel may fall between pixel centres)."""
+    ids = np.asarray(ids).astype(np.int64)
+    found = [np.zeros((0, 2), np.int64)]
+    h, w = ids.shape
+    for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = ids[: h - dy, max(0, -dx) : w - max(0, dx)]
+        b = ids[dy:, max(0, dx) : w - max(0, -dx)]
+        m = (a != b) & (a > 0) & (b > 0)
+        found.append(np.stack([np.minimum(a[m], b[m]), np.maximum(a[m], b[m])], 1))
+    pairs = np.concatenate(found)
+    return np.unique(pairs, axis=0) if len(pairs) else pairs
+
+
 def _inside(tlo: np.ndarray, thi: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """The indices of the boxes (``tlo``, ``thi``: (3, N), an axis a row) that overlap the box
     (``lo``, ``hi``)."""
@@ -193,12 +210,14 @@ def _boxes(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def intersections(
-    v: np.ndarray, f: np.ndarray, face_oid: np.ndarray
+    v: np.ndarray, f: np.ndarray, face_oid: np.ndarray, pairs: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every intersection segment between triangles of different objects: ends ``p``, ``q``
-    (S, 3) and the two faces ``fa``, ``fb`` (S,) (indices into ``f``) it lies on. The faces of
-    one object are contiguous in ``f`` (as :func:`mi_npr.strokes.edges.mesh_arrays` gives
-    them)."""
+    (S, 3) and the two faces ``fa``, ``fb`` (S,) (indices into ``f``) it lies on, ``fa``'s
+    object the lower id; the segments of one pair of objects together, the pairs in increasing
+    ids. The faces of one object are contiguous in ``f``, objects in increasing id (as
+    :func:`mi_npr.strokes.edges.mesh_arrays` gives them). ``pairs``: (K, 2) object ids, the
+    pairs of objects searched (either order; default every pair)."""
     z = np.zeros(0, np.int64)
     empty = np.zeros((0, 3)), np.zeros((0, 3)), z, z
     if len(f) == 0:
@@ -209,13 +228,19 @@ def intersections(
     olo = np.minimum.reduceat(tlo, head, axis=1).T
     ohi = np.maximum.reduceat(thi, head, axis=1).T
     # every pair of objects whose boxes overlap, the first of the pair earlier in ``f``
-    pairs = []
+    found_pairs = []
     for r in range(0, len(head), 1024):  # rows of the object-by-object test, memory bound
         lo, hi = olo[r : r + 1024, None], ohi[r : r + 1024, None]
         meet = np.all((lo <= ohi[None]) & (hi >= olo[None]), axis=2)
         i, j = np.nonzero(meet)
-        pairs.append(np.stack([i + r, j], 1)[i + r < j])
-    ka, kb = np.concatenate(pairs).T
+        found_pairs.append(np.stack([i + r, j], 1)[i + r < j])
+    ka, kb = np.concatenate(found_pairs).T
+    if pairs is not None:  # only the pairs asked for (objects in increasing id: ka's lower)
+        oid = face_oid[head].astype(np.int64)
+        asked = np.sort(np.asarray(pairs, np.int64).reshape(-1, 2), axis=1)
+        m = int(max(oid.max(), asked.max(initial=0))) + 1
+        keep = np.isin(oid[ka] * m + oid[kb], asked[:, 0] * m + asked[:, 1])
+        ka, kb = ka[keep], kb[keep]
 
     def blocks():  # the candidate pairs, gathered into blocks of about CHUNK pairs
         held, count = [], 0
