@@ -318,20 +318,21 @@ def _crossings(
 
 @dataclass(eq=False)
 class Topology:
-    """What of the feature edges does not depend on the camera, kept small (a scene's meshes
-    have millions of triangles): per face (F) its object id ``face_oid`` (a face's primitive
-    index is its position among its object's faces, from ``first_face``, the index of each
-    object id's first face), unit normal ``unit`` (0 for a degenerate face) and plane offset
-    ``offset = unit . p0``; the welded vertices (their first occurrence's position
-    ``welded``, float32 when that holds them exactly, as it does for Mitsuba's single-precision
-    meshes); per welded edge (E) its ends ``keys`` (E, 2), its face count ``counts`` (3: three
-    or more), its first two faces ``f0``, ``f1`` (``f1 = f0`` with one face) and ``flip`` (the
-    two faces wind the edge the same way: ``f1``'s normal is turned for it); and the
-    intersection segments ``crossings`` of the pairs of objects searched so far (``searched``:
-    their keys :meth:`pair_keys`, sorted; ``None``: every pair) (ends ``p``, ``q``, faces
-    ``fa``, ``fb`` (``fa``'s object the lower id), end nodes ``la``, ``lb`` numbered within the
-    pair of objects; the segments of a pair together, the pairs in increasing keys). The
-    vertex positions and faces themselves are not kept."""
+    """What of the feature edges does not depend on the camera, kept small (a scene's meshes have
+    millions of triangles): per face (F) its object id ``face_oid`` (a face's primitive index
+    is its position among its object's faces, from ``first_face``, the index of each object
+    id's first face), unit normal ``unit`` (float32; 0 for a degenerate face) and plane offset
+    ``offset = unit . p0`` (float64, of the stored normal: the plane of that normal through the
+    face's first vertex, so the facing test is exact for it); the welded vertices (their first
+    occurrence's position ``welded``, float32 when that holds them exactly, as it does for
+    Mitsuba's single-precision meshes); per welded edge (E) its ends ``keys`` (E, 2), its face
+    count ``counts`` (3: three or more), its first two faces ``f0``, ``f1`` (``f1 = f0`` with
+    one face) and ``flip`` (the two faces wind the edge the same way: ``f1``'s normal is turned
+    for it); and the intersection segments ``crossings`` of the pairs of objects searched so
+    far (``searched``: their keys :meth:`pair_keys`, sorted; ``None``: every pair) (ends ``p``,
+    ``q``, faces ``fa``, ``fb`` (``fa``'s object the lower id), end nodes ``la``, ``lb``
+    numbered within the pair of objects; the segments of a pair together, the pairs in
+    increasing keys). The vertex positions and faces themselves are not kept."""
 
     face_oid: np.ndarray
     first_face: np.ndarray
@@ -395,7 +396,7 @@ class Topology:
         if np.array_equal(welded.astype(np.float32), welded):
             welded = welded.astype(np.float32)  # the same values in half the memory
         # unit normals and plane offsets, a block of faces at a time (bounded temporaries)
-        unit = np.empty((len(f), 3))
+        unit = np.empty((len(f), 3), np.float32)
         offset = np.empty(len(f))
         for c in range(0, len(f), FACES):
             fc = f[c : c + FACES]
@@ -403,8 +404,9 @@ class Topology:
             n = np.cross(v[fc[:, 1]] - p0, v[fc[:, 2]] - p0)
             length = np.linalg.norm(n, axis=1)
             unit[c : c + len(fc)] = n / np.where(length > 0, length, np.inf)[:, None]
-            offset[c : c + len(fc)] = np.einsum("ij,ij->i", unit[c : c + len(fc)], p0)
-        del v, fc, p0, n, length  # the vertices: the edges need the welded faces alone
+            stored = unit[c : c + len(fc)].astype(np.float64)
+            offset[c : c + len(fc)] = np.einsum("ij,ij->i", stored, p0)
+        del v, fc, p0, n, length, stored  # the vertices: the edges need the welded faces alone
         release_freed_memory()
         keys, counts, f0, f1, flip = _group_edges(wid, f, n_welded)
         return cls(
@@ -493,7 +495,7 @@ class Topology:
                 counts = self.counts[c : c + EDGE_BLOCK]
                 cos_n = np.zeros(len(f0))
                 for k in range(3):
-                    col = self.unit[:, k]
+                    col = self.unit[:, k].astype(np.float64)
                     cos_n += col[f0] * col[f1]
                 cos_n = np.where(self.flip[c : c + EDGE_BLOCK], -cos_n, cos_n)
                 cos_n[degenerate[f0] | degenerate[f1]] = 1.0
@@ -511,9 +513,14 @@ class Topology:
         """``unit . (p - origin)`` per face (F,), ``p`` any point of its plane: negative where
         the face is front-facing, its magnitude how squarely; ``unit . direction`` for an
         orthographic camera's view axis ``direction`` (parallel rays)."""
+        # in double precision, a column at a time (no (F, 3) double-precision copy)
         if direction is not None:
-            return self.unit @ np.asarray(direction, np.float64).reshape(3)
-        return self.offset - self.unit @ np.asarray(origin, np.float64).reshape(3)
+            out, sign, at = np.zeros(len(self.offset)), 1.0, direction
+        else:
+            out, sign, at = self.offset.copy(), -1.0, origin
+        for k, x in enumerate(np.asarray(at, np.float64).reshape(3)):
+            out += self.unit[:, k].astype(np.float64) * (sign * x)
+        return out
 
 
 #: The last scene's topology: one ``(key, buffers, topology)`` entry, replaced as a whole (a
