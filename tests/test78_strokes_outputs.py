@@ -218,15 +218,24 @@ def _expected(a):
     return [float(v) if math.isfinite(v) else None for v in a]
 
 
+@pytest.mark.parametrize("block", [None, 1, 3])
 @pytest.mark.parametrize("preset", ["technical", "illustration", "thesis"])
-def test08_json_holds_each_strokes_numbers_with_null_where_not_finite(preset):
+def test08_json_holds_each_strokes_numbers_with_null_where_not_finite(preset, block, monkeypatch):
+    """Each stroke's numbers as the stroke holds them; ``block``: the rows made a few strokes
+    at a time (the memory bound of a large drawing), the same text."""
+    from mi_npr.io import strokes as S
     from mi_npr.io.strokes import stroke_json
     from mi_npr.strokes.drawing import StrokeDrawing
     from mi_npr.strokes.style import style_of
 
     st = _hand_made(np.random.default_rng(1))
     style = style_of(preset)
-    doc = json.loads(stroke_json(StrokeDrawing(st, style, np.zeros((48, 64)), None)))
+    drawing = StrokeDrawing(st, style, np.zeros((48, 64)), None)
+    text = stroke_json(drawing)
+    if block is not None:
+        monkeypatch.setattr(S, "JSON_BLOCK", block)
+        assert stroke_json(drawing) == text
+    doc = json.loads(text)
     assert len(doc["strokes"]) == len(st)
     for i, (row, s) in enumerate(zip(doc["strokes"], st, strict=True)):
         assert (row["id"], row["object_id"], row["qi"]) == (i, int(s.object_id[0]), s.qi)

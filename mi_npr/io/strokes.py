@@ -125,11 +125,17 @@ def _finite_each(arrays: list[np.ndarray | None]) -> list[Any]:
     return [None if a is None else next(pieces) for a in arrays]
 
 
-def stroke_json(drawing: StrokeDrawing) -> str:
-    """The JSON text of a :class:`~mi_npr.strokes.drawing.StrokeDrawing` (module docstring)."""
+#: Strokes whose JSON rows are made at once (memory: until a block is text, each of its numbers
+#: is a Python object).
+JSON_BLOCK = 1024
+
+
+def _json_rows(drawing: StrokeDrawing, first: int, widths: Any, opacity: Any, ends: Any) -> str:
+    """The JSON text of the rows of the strokes ``first`` to ``first + len(ends)`` (``widths``,
+    ``opacity``: their vertices'; ``ends``: where each one's end, counted from the first),
+    joined by commas."""
     st, style = drawing.strokes, drawing.style
-    strokes = st.strokes
-    widths, opacity, ends = style_arrays(strokes, style, st.depth_range)
+    strokes = st.strokes[first : first + len(ends)]
     columns = {
         "points": _finite_each([s.points for s in strokes]),
         "position": _finite_each([s.position for s in strokes]),
@@ -141,27 +147,35 @@ def stroke_json(drawing: StrokeDrawing) -> str:
     rows = []
     for i, s in enumerate(strokes):
         oid = np.asarray(s.object_id, np.int64).tolist()
-        rows.append(
-            {
-                "id": i,
-                "kind": s.kind,
-                "object_id": oid[0],
-                "object": st.name_of(oid[0]),
-                "qi": int(s.qi),
-                "visible": s.qi == 0,
-                "through_glass": bool(s.through_glass),
-                "closed": bool(s.closed),
-                "drawn": style.drawn(s),
-                "points": columns["points"][i],
-                "position": columns["position"][i],
-                "depth": columns["depth"][i],
-                "depth_behind": columns["depth_behind"][i],
-                "object_ids": oid,
-                "prims": np.asarray(s.prim, np.int64).tolist(),
-                "width": columns["width"][i],
-                "opacity": columns["opacity"][i],
-            }
-        )
+        row = {
+            "id": first + i,
+            "kind": s.kind,
+            "object_id": oid[0],
+            "object": st.name_of(oid[0]),
+            "qi": int(s.qi),
+            "visible": s.qi == 0,
+            "through_glass": bool(s.through_glass),
+            "closed": bool(s.closed),
+            "drawn": style.drawn(s),
+            "points": columns["points"][i],
+            "position": columns["position"][i],
+            "depth": columns["depth"][i],
+            "depth_behind": columns["depth_behind"][i],
+            "object_ids": oid,
+            "prims": np.asarray(s.prim, np.int64).tolist(),
+            "width": columns["width"][i],
+            "opacity": columns["opacity"][i],
+        }
+        rows.append(json.dumps(row, allow_nan=False, separators=(",", ":")))
+    return ",".join(rows)
+
+
+def stroke_json(drawing: StrokeDrawing) -> str:
+    """The JSON text of a :class:`~mi_npr.strokes.drawing.StrokeDrawing` (module docstring),
+    made :data:`JSON_BLOCK` strokes at a time."""
+    st, style = drawing.strokes, drawing.style
+    strokes = st.strokes
+    widths, opacity, ends = style_arrays(strokes, style, st.depth_range)
     doc = {
         "format": "mi-npr-strokes",
         "version": 1,
@@ -173,9 +187,16 @@ def stroke_json(drawing: StrokeDrawing) -> str:
         "style": style.to_dict(),
         "kinds": list(KINDS),
         "objects": {str(k): v for k, v in sorted(st.objects.items())},
-        "strokes": rows,
     }
-    return json.dumps(doc, allow_nan=False, separators=(",", ":")) + "\n"
+    head = json.dumps(doc, allow_nan=False, separators=(",", ":"))
+    pieces = [head[:-1], ',"strokes":[']
+    for b in range(0, len(strokes), JSON_BLOCK):
+        e = ends[b : b + JSON_BLOCK]
+        start = int(ends[b - 1]) if b else 0
+        stop = int(e[-1])
+        pieces += [","] if b else []
+        pieces.append(_json_rows(drawing, b, widths[start:stop], opacity[start:stop], e - start))
+    return "".join([*pieces, "]}\n"])
 
 
 def strokes_on_paper(drawing: StrokeDrawing, paper: Any = PAPER) -> np.ndarray:
