@@ -183,7 +183,7 @@ def release_freed_memory() -> None:
 HALF_EDGES = 1 << 18
 #: Faces whose normals are computed at once, and edges classified at once for a view (bound
 #: the memory of the temporaries).
-FACES = 1 << 18
+FACES = 1 << 16
 EDGE_BLOCK = 1 << 18
 
 
@@ -323,15 +323,16 @@ class Topology:
     is its position among its object's faces, from ``first_face``, the index of each object
     id's first face), unit normal ``unit`` (float32; 0 for a degenerate face) and plane offset
     ``offset = unit . p0`` (float64, of the stored normal: the plane of that normal through the
-    face's first vertex, so the facing test is exact for it); the welded vertices (their first
-    occurrence's position ``welded``, float32 when that holds them exactly, as it does for
-    Mitsuba's single-precision meshes); per welded edge (E) its ends ``keys`` (E, 2), its face
-    count ``counts`` (3: three or more), its first two faces ``f0``, ``f1`` (``f1 = f0`` with
-    one face) and ``flip`` (the two faces wind the edge the same way: ``f1``'s normal is turned
-    for it); and the intersection segments ``crossings`` of the pairs of objects searched so
-    far (``searched``: their keys :meth:`pair_keys`, sorted; ``None``: every pair) (ends ``p``,
-    ``q``, faces ``fa``, ``fb`` (``fa``'s object the lower id), end nodes ``la``, ``lb``
-    numbered within the pair of objects; the segments of a pair together, the pairs in
+    face's first vertex, so the facing test is exact for it), both of the face with its welded
+    vertices (the faces that share an edge share its ends' positions); the welded vertices
+    (their first occurrence's position ``welded``, float32 when that holds them exactly, as it
+    does for Mitsuba's single-precision meshes); per welded edge (E) its ends ``keys`` (E, 2),
+    its face count ``counts`` (3: three or more), its first two faces ``f0``, ``f1`` (``f1 =
+    f0`` with one face) and ``flip`` (the two faces wind the edge the same way: ``f1``'s normal
+    is turned for it); and the intersection segments ``crossings`` of the pairs of objects
+    searched so far (``searched``: their keys :meth:`pair_keys`, sorted; ``None``: every pair)
+    (ends ``p``, ``q``, faces ``fa``, ``fb`` (``fa``'s object the lower id), end nodes ``la``,
+    ``lb`` numbered within the pair of objects; the segments of a pair together, the pairs in
     increasing keys). The vertex positions and faces themselves are not kept."""
 
     face_oid: np.ndarray
@@ -356,8 +357,9 @@ class Topology:
         """The topology of the meshes of ``table`` (their triangle soup, :func:`mesh_arrays`;
         class docstring), with the intersection lines of the object pairs ``pairs`` ((K, 2)
         object ids; default every pair). Built in the order that keeps the fewest arrays alive
-        at once: the intersections first (from the soup alone), the normals, then the edges
-        (from the faces alone)."""
+        at once: the intersections first (from the soup alone), the welded vertices, the edges
+        (from the faces and their welded vertices alone), then the faces' planes (from the
+        welded vertices)."""
         v, f, face_oid = mesh_arrays(table)
         z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
         if len(f) == 0:
@@ -395,20 +397,23 @@ class Topology:
         del rep
         if np.array_equal(welded.astype(np.float32), welded):
             welded = welded.astype(np.float32)  # the same values in half the memory
-        # unit normals and plane offsets, a block of faces at a time (bounded temporaries)
+        del v  # the edges need the welded faces alone, the planes the welded vertices
+        release_freed_memory()
+        keys, counts, f0, f1, flip = _group_edges(wid, f, n_welded)
+        release_freed_memory()
+        # unit normals and plane offsets of the welded faces, a block of faces at a time
+        # (bounded temporaries)
         unit = np.empty((len(f), 3), np.float32)
         offset = np.empty(len(f))
         for c in range(0, len(f), FACES):
-            fc = f[c : c + FACES]
-            p0 = v[fc[:, 0]]
-            n = np.cross(v[fc[:, 1]] - p0, v[fc[:, 2]] - p0)
+            fc = wid[f[c : c + FACES]]
+            p0 = welded[fc[:, 0]].astype(np.float64)
+            n = np.cross(welded[fc[:, 1]] - p0, welded[fc[:, 2]] - p0)
             length = np.linalg.norm(n, axis=1)
             unit[c : c + len(fc)] = n / np.where(length > 0, length, np.inf)[:, None]
             stored = unit[c : c + len(fc)].astype(np.float64)
             offset[c : c + len(fc)] = np.einsum("ij,ij->i", stored, p0)
-        del v, fc, p0, n, length, stored  # the vertices: the edges need the welded faces alone
-        release_freed_memory()
-        keys, counts, f0, f1, flip = _group_edges(wid, f, n_welded)
+        del f, fc, p0, n, length, stored
         return cls(
             face_oid,
             first_face,
@@ -495,8 +500,8 @@ class Topology:
                 counts = self.counts[c : c + EDGE_BLOCK]
                 cos_n = np.zeros(len(f0))
                 for k in range(3):
-                    col = self.unit[:, k].astype(np.float64)
-                    cos_n += col[f0] * col[f1]
+                    col = self.unit[:, k]
+                    cos_n += col[f0].astype(np.float64) * col[f1].astype(np.float64)
                 cos_n = np.where(self.flip[c : c + EDGE_BLOCK], -cos_n, cos_n)
                 cos_n[degenerate[f0] | degenerate[f1]] = 1.0
                 two = counts == 2
@@ -513,13 +518,12 @@ class Topology:
         """``unit . (p - origin)`` per face (F,), ``p`` any point of its plane: negative where
         the face is front-facing, its magnitude how squarely; ``unit . direction`` for an
         orthographic camera's view axis ``direction`` (parallel rays)."""
-        # in double precision, a column at a time (no (F, 3) double-precision copy)
-        if direction is not None:
-            out, sign, at = np.zeros(len(self.offset)), 1.0, direction
-        else:
-            out, sign, at = self.offset.copy(), -1.0, origin
-        for k, x in enumerate(np.asarray(at, np.float64).reshape(3)):
-            out += self.unit[:, k].astype(np.float64) * (sign * x)
+        # in double precision, a block of faces at a time (no (F, 3) double-precision copy)
+        at = np.asarray(origin if direction is None else direction, np.float64).reshape(3)
+        out = np.empty(len(self.offset))
+        for c in range(0, len(out), FACES):
+            dot = self.unit[c : c + FACES].astype(np.float64) @ at
+            out[c : c + FACES] = dot if direction is not None else self.offset[c : c + FACES] - dot
         return out
 
 
