@@ -94,6 +94,33 @@ def measure_cold(script: str, case: str, w: int, h: int) -> float:
     return cold_run(script, case, w, h)["cold_ms"]
 
 
+#: Runs a command (its arguments) and prints its wall time, its peak RSS and its stderr as
+#: JSON: ``resource.getrusage(RUSAGE_CHILDREN)`` of a wrapper process that ran only that command.
+_MEASURED = (
+    "import json, resource, subprocess, sys, time\n"
+    "t0 = time.perf_counter()\n"
+    "r = subprocess.run(sys.argv[1:], capture_output=True, text=True)\n"
+    "dt = time.perf_counter() - t0\n"
+    "if r.returncode: sys.stderr.write(r.stderr); sys.exit(r.returncode)\n"
+    "ru = resource.getrusage(resource.RUSAGE_CHILDREN)\n"
+    "print(json.dumps({'s': dt, 'peak_mb': ru.ru_maxrss / 1024, 'stderr': r.stderr}))\n"
+)
+
+
+def run_measured(cmd: list[str], env: dict[str, str] | None = None) -> dict[str, Any]:
+    """Run ``cmd`` in a fresh process: ``{"s": wall seconds, "peak_mb": its peak RSS,
+    "stderr": ...}``; a failure ends the benchmark with the command and its stderr."""
+    out = subprocess.run(
+        [sys.executable, "-c", _MEASURED, *cmd],
+        capture_output=True,
+        text=True,
+        env=dict(os.environ, **(env or {})),
+    )
+    if out.returncode:
+        raise SystemExit(f"failed: {' '.join(cmd)}\n{out.stderr}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def cpu_model() -> str:
     """The CPU's name and its widest SIMD: Dr.Jit's LLVM kernels run 16 lanes wide with AVX-512,
     8 with AVX2, so the same code differs by ~2.5x between such machines (OpenCV much less)."""

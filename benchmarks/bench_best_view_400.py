@@ -30,9 +30,6 @@ Prints seconds, peak MB and the ratios against ``load``; writes
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -43,16 +40,6 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 N_MESHES = 400
-
-_WRAPPER = (
-    "import json, resource, subprocess, sys, time\n"
-    "t0 = time.perf_counter()\n"
-    "r = subprocess.run(sys.argv[1:], capture_output=True, text=True)\n"
-    "dt = time.perf_counter() - t0\n"
-    "if r.returncode: sys.stderr.write(r.stderr); sys.exit(r.returncode)\n"
-    "ru = resource.getrusage(resource.RUSAGE_CHILDREN)\n"
-    "print(json.dumps({'s': dt, 'peak_mb': ru.ru_maxrss / 1024, 'stderr': r.stderr}))\n"
-)
 
 
 def build_scene(folder: Path) -> tuple[Path, int]:
@@ -93,19 +80,6 @@ def build_scene(folder: Path) -> tuple[Path, int]:
     return scene, tris + 2
 
 
-def run_case(cmd: list[str], env: dict[str, str] | None = None) -> dict:
-    """Run ``cmd`` under the wrapper; its time, peak RSS (MB) and stderr."""
-    out = subprocess.run(
-        [sys.executable, "-c", _WRAPPER, *cmd],
-        capture_output=True,
-        text=True,
-        env=dict(os.environ, **(env or {})),
-    )
-    if out.returncode:
-        raise SystemExit(f"failed: {' '.join(cmd)}\n{out.stderr}")
-    return json.loads(out.stdout.strip().splitlines()[-1])
-
-
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=HERE / "results")
@@ -123,10 +97,10 @@ def main() -> int:
             "curvature": [*cli, "--measure", "curvature"],
             "entropy_no_sphere": [*cli, "--measure", "entropy", "--no-sphere"],
         }
-        run_case(cases["entropy"])  # warm the kernel cache
-        res = {name: run_case(cmd) for name, cmd in cases.items()}
+        _common.run_measured(cases["entropy"])  # warm the kernel cache
+        res = {name: _common.run_measured(cmd) for name, cmd in cases.items()}
         with tempfile.TemporaryDirectory() as cache:
-            res["entropy_cold"] = run_case(cases["entropy"], {"DRJIT_CACHE_DIR": cache})
+            res["entropy_cold"] = _common.run_measured(cases["entropy"], {"DRJIT_CACHE_DIR": cache})
     anchor = res["load"]
     print(f"\nmi-npr best-view, {N_MESHES} meshes, defaults (depth 3, res 128), 640x480 16 spp")
     print(f"  {'case':<20}{'s':>8}{'peak MB':>10}{'s / load':>10}{'MB / load':>11}")
