@@ -19,7 +19,8 @@ The tutorials come from ``--tutorials DIR`` (a clone of mitsuba-renderer/mitsuba
 default ``$MI_NPR_TUTORIALS``); without them, or with the model's meshes missing (Git LFS),
 the benchmark is skipped with a message, exit code 0, and a JSON report saying why.
 
-    python benchmarks/bench_public.py --tutorials DIR [--quick] [--repeat N] [--out DIR]
+    python benchmarks/bench_public.py --tutorials DIR [--quick] [--repeat N] [--drawings A,B]
+        [--out DIR]
 
 ``--quick``: ``lines`` only, at 640x360. Prints seconds, peak MB and the ratios against the
 anchor; writes ``benchmarks/results/bench_public.json``.
@@ -47,6 +48,7 @@ def main() -> int:
     ap.add_argument("--tutorials", type=Path, default=os.environ.get("MI_NPR_TUTORIALS"))
     ap.add_argument("--repeat", type=int, default=1, help="runs of each case (the median)")
     ap.add_argument("--quick", action="store_true", help="lines only, at 640x360")
+    ap.add_argument("--drawings", default=",".join(DRAWINGS), help="which, comma-separated")
     ap.add_argument("--out", type=Path, default=HERE / "results")
     args = ap.parse_args()
 
@@ -62,7 +64,10 @@ def main() -> int:
     if not xml.is_file() or not meshes or any(m.stat().st_size < 1024 for m in meshes[:5]):
         return skip(f"{xml}: the scene or its PLY meshes are missing (Git LFS pointers?)")
     w, h = (640, 360) if args.quick else (1280, 720)
-    drawings = ("lines",) if args.quick else DRAWINGS
+    drawings = ("lines",) if args.quick else tuple(args.drawings.split(","))
+    unknown = sorted(set(drawings) - set(DRAWINGS))
+    if unknown:
+        raise SystemExit(f"bench_public: --drawings: unknown {', '.join(unknown)}")
     py = sys.executable
     results: dict[str, dict] = {}
     with tempfile.TemporaryDirectory() as tmp:
