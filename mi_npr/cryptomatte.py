@@ -238,6 +238,8 @@ def _accumulate(
     radius = float(rfilter.radius())
     reach = _reach(rfilter)
     px, py = mi.Int32(dr.floor(x)), mi.Int32(dr.floor(y))
+    # the band's rows as kernel inputs, not constants: every band runs the same kernels
+    first_row, height = dr.opaque(mi.Int32, first_row), dr.opaque(mi.Int32, height)
 
     def weight(d: Any) -> Any:
         return dr.select(dr.abs(d) < radius, dr.maximum(rfilter.eval(d), 0.0), 0.0)
