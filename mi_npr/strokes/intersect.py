@@ -1,8 +1,9 @@
 """Intersection lines: where the triangles of two different meshes cut each other.
 
-**Pairs of triangles.** For every pair of meshes whose bounding boxes overlap, the triangles of
-each that reach into the overlap are hashed into a uniform grid over it (cell side: the median
-triangle size there, at most ``GRID`` cells per axis); triangles sharing a cell, with
+**Pairs of triangles.** For every pair of meshes whose bounding boxes overlap (of those asked
+for: a view's visible lines need only the pairs whose pixels touch, :func:`touching_pairs`), the
+triangles of each that reach into the overlap are hashed into a uniform grid over it (cell side:
+the median triangle size there, at most ``GRID`` cells per axis); triangles sharing a cell, with
 overlapping bounding boxes, are tested. The cost is about ``O(F + P)`` for ``F`` triangles in
 the overlaps and ``P`` candidate pairs (``O(F_a F_b)`` at worst, when all triangles crowd into
 one cell). Self-intersections of one mesh are not looked for. The candidates are found on the
