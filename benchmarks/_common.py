@@ -140,6 +140,13 @@ def cpu_model() -> str:
     return f"{name} ({simd[0] if simd else 'no AVX2/AVX-512'})"
 
 
+def skipped(name: str, out: Path, why: str) -> int:
+    """Say why benchmark ``name`` did not run and record it in its report; exit code 0."""
+    print(f"{name}: skipped: {why}")
+    write_report(name, out, skipped=why)
+    return 0
+
+
 def write_report(name: str, out: Path, **fields: Any) -> Path:
     """``out/<name>.json``: the machine, versions and ``fields`` (scene, results, ...)."""
     import mi_npr

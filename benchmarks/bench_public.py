@@ -45,24 +45,27 @@ GOAL = 1.3
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--tutorials", type=Path, default=os.environ.get("MI_NPR_TUTORIALS"))
+    ap.add_argument("--tutorials", type=Path, default=os.environ.get("MI_NPR_TUTORIALS") or None)
     ap.add_argument("--repeat", type=int, default=1, help="runs of each case (the median)")
     ap.add_argument("--quick", action="store_true", help="lines only, at 640x360")
     ap.add_argument("--drawings", default=",".join(DRAWINGS), help="which, comma-separated")
     ap.add_argument("--out", type=Path, default=HERE / "results")
     args = ap.parse_args()
 
-    def skip(why: str) -> int:
-        print(f"bench_public: skipped: {why}")
-        _common.write_report("bench_public", args.out, skipped=why)
-        return 0
-
     if args.tutorials is None or not Path(args.tutorials).is_dir():
-        return skip("no mitsuba-tutorials clone: pass --tutorials DIR or set MI_NPR_TUTORIALS")
+        return _common.skipped(
+            "bench_public",
+            args.out,
+            "no mitsuba-tutorials clone: pass --tutorials DIR or set MI_NPR_TUTORIALS",
+        )
     xml = Path(args.tutorials) / SCENE
     meshes = sorted((xml.parent / "meshes").glob("*.ply"))
     if not xml.is_file() or not meshes or any(m.stat().st_size < 1024 for m in meshes[:5]):
-        return skip(f"{xml}: the scene or its PLY meshes are missing (Git LFS pointers?)")
+        return _common.skipped(
+            "bench_public",
+            args.out,
+            f"{xml}: the scene or its PLY meshes are missing (Git LFS pointers?)",
+        )
     w, h = (640, 360) if args.quick else (1280, 720)
     drawings = ("lines",) if args.quick else tuple(args.drawings.split(","))
     unknown = sorted(set(drawings) - set(DRAWINGS))

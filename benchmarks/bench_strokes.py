@@ -375,7 +375,7 @@ def sensor_camera(xml: Path) -> dict:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--tutorials", type=Path, default=os.environ.get("MI_NPR_TUTORIALS"))
+    ap.add_argument("--tutorials", type=Path, default=os.environ.get("MI_NPR_TUTORIALS") or None)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="the Cornell box only, 1 repeat")
     ap.add_argument("--threads", type=int, default=2)
@@ -383,16 +383,15 @@ def main() -> int:
     ap.add_argument("--out", type=Path, default=HERE / "results")
     args = ap.parse_args()
 
-    def skip(why: str) -> int:
-        print(f"bench_strokes: skipped: {why}")
-        _common.write_report("bench_strokes", args.out, skipped=why)
-        return 0
-
     exe, why = blender_available(not args.no_install)
     if exe is None:
-        return skip(why)
+        return _common.skipped("bench_strokes", args.out, why)
     if args.tutorials is None or not Path(args.tutorials).is_dir():
-        return skip("no mitsuba-tutorials clone: pass --tutorials DIR or set MI_NPR_TUTORIALS")
+        return _common.skipped(
+            "bench_strokes",
+            args.out,
+            "no mitsuba-tutorials clone: pass --tutorials DIR or set MI_NPR_TUTORIALS",
+        )
     version = subprocess.run([exe, "--version"], capture_output=True, text=True).stdout
     cases = {"cbox": SCENES["cbox"]} if args.quick else SCENES
     repeat = 1 if args.quick else args.repeat

@@ -216,15 +216,13 @@ def brute_coverage(xs, ys, ids, n, w, h, f, radius):
     return np.divide(acc, tot, out=np.zeros_like(acc), where=tot > 0).reshape(h * w, n + 1)
 
 
-@pytest.mark.parametrize("kind", ["box", "gaussian", "tent"])
-@pytest.mark.parametrize(("w", "h"), [(1, 1), (5, 3)])
-def test06_splatting_against_a_brute_force_loop(kind, w, h):
+def random_samples(kind: str, w: int, h: int, spp: int, n: int, seed: int):
+    """A reconstruction filter ``kind``, its weight as a Python function, and ``spp`` random
+    samples in every pixel of a ``w x h`` film with random ids 0..n."""
     import mitsuba as mi
 
     rf = mi.load_dict({"type": kind})
-    rng = np.random.default_rng(7)
-    spp = 5
-    n = 3
+    rng = np.random.default_rng(seed)
     pix = np.repeat(np.arange(w * h), spp)
     xs = (pix % w) + rng.random(pix.size)
     ys = (pix // w) + rng.random(pix.size)
@@ -233,6 +231,14 @@ def test06_splatting_against_a_brute_force_loop(kind, w, h):
     def f(d):
         return float(np.asarray(rf.eval(mi.Float(np.float32(d)))).ravel()[0])
 
+    return rf, f, xs, ys, ids
+
+
+@pytest.mark.parametrize("kind", ["box", "gaussian", "tent"])
+@pytest.mark.parametrize(("w", "h"), [(1, 1), (5, 3)])
+def test06_splatting_against_a_brute_force_loop(kind, w, h):
+    n = 3
+    rf, f, xs, ys, ids = random_samples(kind, w, h, 5, n, 7)
     ref = brute_coverage(xs, ys, ids, n, w, h, f, rf.radius())
     got = C.coverage(xs.astype(np.float32), ys.astype(np.float32), ids, n, w, h, rf)
     np.testing.assert_allclose(got, ref, atol=2e-6)
@@ -246,17 +252,8 @@ def test06b_a_band_of_rows_against_the_brute_force_loop(kind, w, h, first, rows)
     the far side of its edges: the brute force's rows, and only the nonzero cells kept."""
     import mitsuba as mi
 
-    rf = mi.load_dict({"type": kind})
-    rng = np.random.default_rng(11)
-    spp, n = 4, 3
-    pix = np.repeat(np.arange(w * h), spp)
-    xs = (pix % w) + rng.random(pix.size)
-    ys = (pix // w) + rng.random(pix.size)
-    ids = rng.integers(0, n + 1, size=pix.size)
-
-    def f(d):
-        return float(np.asarray(rf.eval(mi.Float(np.float32(d)))).ravel()[0])
-
+    n = 3
+    rf, f, xs, ys, ids = random_samples(kind, w, h, 4, n, 11)
     ref = brute_coverage(xs, ys, ids, n, w, h, f, rf.radius())[first * w : (first + rows) * w]
     acc = mi.Float(np.zeros(rows * w * (n + 1), np.float32))
     C._accumulate(acc, xs.astype(np.float32), ys.astype(np.float32), ids, n, w, rows, rf, first)
