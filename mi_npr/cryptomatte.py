@@ -203,17 +203,18 @@ def _shares(
     return pixel + first, col, weight / total[pixel]
 
 
-def check_cells(width: int, height: int, n_ids: int) -> int:
-    """The cells of the coverage table of ``n_ids`` names at ``width x height``, or a
-    :class:`ParameterError` when one row of the film has too many (checked before a render
-    starts; :func:`cryptomatte` ranks the film in bands of rows, :data:`BAND_CELLS` at most)."""
-    row = width * (n_ids + 1)
-    if row > _MAX_CELLS:
+def check_cells(width: int, rows: int, n_ids: int) -> int:
+    """The cells of a coverage table of ``rows`` rows of ``width`` pixels and ``n_ids`` names
+    held at once, or a :class:`ParameterError` when they are more than ``_MAX_CELLS`` (checked
+    before a render starts: :func:`cryptomatte` holds a band of rows, :data:`BAND_CELLS` cells
+    at most and one row at least; :func:`coverage` the whole table)."""
+    cells = width * rows * (n_ids + 1)
+    if cells > _MAX_CELLS:
         raise ParameterError(
-            f"cryptomatte: {width} pixels a row x {n_ids + 1} names is too many to rank "
-            f"({row} cells, at most {_MAX_CELLS})"
+            f"cryptomatte: {width}x{rows} pixels x {n_ids + 1} names is too many to rank "
+            f"({cells} cells, at most {_MAX_CELLS})"
         )
-    return width * height * (n_ids + 1)
+    return cells
 
 
 def _reach(rfilter: mi.ReconstructionFilter) -> int:
@@ -328,7 +329,7 @@ def cryptomatte(
     table = object_table(scene)
     rfilter = sensor.film().rfilter()
     n_obj = len(table.names)
-    check_cells(w, h, n_obj)
+    check_cells(w, 1, n_obj)  # a band holds one row at least
     band = max(1, min(h, BAND_CELLS // (w * (n_obj + 1))))
     reach = _reach(rfilter) if band < h else 0
     cells, p = [], 0

@@ -456,8 +456,8 @@ def _draw_strokes(session: SceneSession, gb: GBuffer, p: Mapping[str, Any], **_:
 
 
 def _cryptomatte_preflight(session: SceneSession) -> None:
-    w, h = (int(v) for v in session.sensor.film().crop_size())
-    cryptomatte.check_cells(w, h, len(session.objects.names))
+    w = int(session.sensor.film().crop_size()[0])
+    cryptomatte.check_cells(w, 1, len(session.objects.names))  # one row a band at least
 
 
 def _draw_cryptomatte(

@@ -375,3 +375,18 @@ def test12_too_many_names_is_refused_before_the_render(tmp_path, monkeypatch):
     with pytest.raises(mi_npr.ParameterError, match="too many to rank"):
         mi_npr.render_layers(SCENES / "scene1.xml", ["cryptomatte"], resolution=(16, 12), spp=1)
     assert not calls
+
+
+def test13_coverage_refuses_a_dense_table_past_the_bound(monkeypatch):
+    """:func:`coverage` holds the whole (pixels x names) table at once: past ``_MAX_CELLS``
+    it is a clear error before anything is allocated (the banded render holds a row)."""
+    import mitsuba as mi
+
+    monkeypatch.setattr(C, "_MAX_CELLS", 5 * 3 * 4 - 1)
+    xs = ys = np.full(1, 0.5, np.float32)
+    with pytest.raises(mi_npr.ParameterError, match="5x3 pixels x 4 names is too many"):
+        C.coverage(xs, ys, np.zeros(1, np.uint32), 3, 5, 3, mi.load_dict({"type": "box"}))
+    monkeypatch.setattr(C, "_MAX_CELLS", 5 * 3 * 4)
+    assert C.coverage(
+        xs, ys, np.zeros(1, np.uint32), 3, 5, 3, mi.load_dict({"type": "box"})
+    ).shape == (15, 4)

@@ -164,7 +164,7 @@ def _capsules(
         return own.astype(np.int64), idx.astype(np.int64), cov
     own = np.asarray(owner, np.int64)[own]
     # per owner and pixel, the largest coverage: one sort of one key, a maximum per run
-    key = own.astype(np.int64) * (width * height) + idx
+    key = own * (width * height) + idx
     order = np.argsort(key, kind="stable")
     key = key[order]
     head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
