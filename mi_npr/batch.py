@@ -77,6 +77,7 @@ from .errors import (
 )
 from .io import check_writable_dir
 from .io.manifest import MANIFEST, Appender, check_manifest, read_rows, scene_hash
+from .memory import share_malloc_arena
 from .params import (
     MAX_RETRIES,
     MAX_THREADS,
@@ -420,6 +421,19 @@ _JOB_LOCK = threading.Lock()  # one job at a time per process (output sets, the 
 _LAUNCH: dict[str, Any] = {"key": None, "views": {}}
 _SCENES: OrderedDict[tuple, tuple[Any, dict[str, Any]]] = OrderedDict()
 _THREADS: list[int | None] = [None]
+#: Whether this process is a Dask worker (found by the first job).
+_ON_WORKER: list[bool | None] = [None]
+
+
+def _on_dask_worker() -> bool:
+    """Whether this code runs in a Dask worker."""
+    try:  # imported here: see _worker_name
+        from distributed import get_worker
+
+        get_worker()
+        return True
+    except (ImportError, ValueError):
+        return False
 
 
 def _worker_name() -> str:
@@ -432,8 +446,14 @@ def _worker_name() -> str:
 
 
 def _configure(settings: BatchSettings) -> None:
-    """This process's variant and Dr.Jit thread cap (once; again only if they change)."""
+    """This process's variant and Dr.Jit thread cap (once; again only if they change); in a
+    Dask worker, one malloc arena for its threads (:func:`mi_npr.memory.share_malloc_arena`:
+    the worker is a process of mi-npr's own)."""
 
+    if _ON_WORKER[0] is None:
+        _ON_WORKER[0] = _on_dask_worker()
+        if _ON_WORKER[0]:
+            share_malloc_arena()
     if settings.variant and mi.variant() != settings.variant:
         set_variant(settings.variant)
     if settings.threads and _THREADS[0] != settings.threads:

@@ -194,3 +194,30 @@ def test10_a_path_checks_its_memory_before_rendering_and_streams_its_frames(tmp_
     again = mi_npr.coherence.popping(watched(), layer="lines.V")
     assert most[0] <= 3 and again["frames"] == 6
     assert again["per_frame"] == r.coherence["per_frame"]  # the same measure as the path's
+
+
+def test11_one_malloc_arena_for_the_command(monkeypatch):
+    """``share_malloc_arena`` asks glibc for one arena (``mallopt(M_ARENA_MAX, 1)``), does
+    nothing where the C library has no ``mallopt``, and the command asks for it first."""
+    calls = []
+
+    class Glibc:
+        def mallopt(self, param, value):
+            calls.append((param, value))
+            return 1
+
+    monkeypatch.setattr(memory, "_libc", Glibc)
+    memory.share_malloc_arena()
+    assert calls == [(-8, 1)]
+    monkeypatch.setattr(memory, "_libc", object)  # no mallopt: not glibc
+    memory.share_malloc_arena()
+    import mi_npr.cli
+
+    monkeypatch.setattr(mi_npr.cli, "share_malloc_arena", lambda: calls.append("cli"))
+    with pytest.raises(SystemExit):
+        mi_npr.cli.main(["--version"])
+    assert calls[-1] == "cli"
+    # a library call in another program's process leaves its malloc alone
+    from mi_npr import batch
+
+    assert not batch._on_dask_worker()

@@ -304,6 +304,8 @@ def test05_a_job_without_progress_is_stopped_and_the_batch_ends(tmp_path):
     out = tmp_path / "out"
     with mi_npr.batch.local_cluster(2) as cluster, Client(cluster) as client:
         client.run(_hang_once, str(tmp_path / "hung"))
+        # a worker knows it is one (its jobs then share one malloc arena: its process is ours)
+        assert client.submit(mi_npr.batch._on_dask_worker, pure=False).result() is True
         rows = mi_npr.batch.run([xml], "orbit:3", client, out=out, width=16, height=12, spp=1,
                                 progress=False, job_timeout=10, retries=1)  # fmt: skip
     assert [r["status"] for r in rows] == ["done"] * 3

@@ -28,7 +28,7 @@ import mi_npr
 # Only modules that do not import Dr.Jit at the top: this runs before the LLVM check.
 from ..data import resolve
 from ..errors import NprError, for_terminal, one_line
-from ..memory import ENV, set_max_memory
+from ..memory import ENV, set_max_memory, share_malloc_arena
 
 PROG = "mi-npr"
 #: The commands, in the order ``--help`` lists them.
@@ -143,6 +143,7 @@ def _on_sigterm(signum: int, frame: object) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    share_malloc_arena()  # a process of mi-npr's own (see there)
     parser = build_parser()
     # The commands' flags exist only once mi-npr starts: when it cannot, say why (in _run)
     # rather than call those flags unknown.

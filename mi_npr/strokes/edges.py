@@ -45,8 +45,8 @@ segment's parameter, so the clipped ends lie exactly on the frame.
 
 from __future__ import annotations
 
-import ctypes
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import drjit as dr
@@ -56,6 +56,7 @@ import numpy as np
 from ..camera import projection_of
 from ..errors import ParameterError
 from ..gbuffer import Projection
+from ..memory import release_freed_memory
 from ..projection import world_to_ndc
 from ..scene import ObjectTable
 from .intersect import intersections
@@ -166,17 +167,6 @@ def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
     del pairs
     _, labels = connected_components(g, directed=False)
     return labels.astype(np.int64)
-
-
-def release_freed_memory() -> None:
-    """Hand the pages of freed arrays back to the system, where the C library allows it
-    (glibc's ``malloc_trim``; elsewhere nothing). glibc keeps freed blocks between live ones
-    resident, so without it a phase's temporaries of a few MB each (the topology's build makes
-    hundreds) would stay in the process's memory after the phase."""
-    try:
-        ctypes.CDLL(None).malloc_trim(0)
-    except (AttributeError, OSError, TypeError):  # not glibc
-        pass
 
 
 #: Half-edges grouped into edges at once while the topology is built (bounds its memory).
@@ -357,9 +347,9 @@ class Topology:
         """The topology of the meshes of ``table`` (their triangle soup, :func:`mesh_arrays`;
         class docstring), with the intersection lines of the object pairs ``pairs`` ((K, 2)
         object ids; default every pair). Built in the order that keeps the fewest arrays alive
-        at once: the intersections first (from the soup alone), the welded vertices, the edges
-        (from the faces and their welded vertices alone), then the faces' planes (from the
-        welded vertices)."""
+        at once: the intersections and the welded vertices (side by side, from the soup
+        alone), the edges (from the faces and their welded vertices alone), then the faces'
+        planes (from the welded vertices)."""
         v, f, face_oid = mesh_arrays(table)
         z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
         if len(f) == 0:
@@ -385,10 +375,12 @@ class Topology:
         size = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
         n_keys = len(first_face)
         asked = None if pairs is None else _asked_keys(pairs, n_keys)
-        # one after the other, not side by side: the two searches' temporaries would add up
-        crossings = _crossings(v, f, face_oid, size, asked, n_keys)
-        release_freed_memory()
-        wid = weld(v, WELD * size).astype(np.int32)
+        # the weld on a thread of its own beside the intersection search: SciPy's tree search
+        # leaves Python's lock, which the search's many small numpy calls hold
+        with ThreadPoolExecutor(1) as pool:
+            welding = pool.submit(weld, v, WELD * size)
+            crossings = _crossings(v, f, face_oid, size, asked, n_keys)
+            wid = welding.result().astype(np.int32)
         release_freed_memory()
         n_welded = int(wid.max()) + 1
         rep = np.zeros(n_welded, np.int64)
