@@ -112,3 +112,25 @@ def test03_a_views_rows_made_a_few_at_a_time_are_all_of_them(tmp_path):
         joined = np.concatenate([getattr(p, key) for p in parts])
         np.testing.assert_array_equal(joined, getattr(whole, key), err_msg=key)
         assert joined.dtype == getattr(whole, key).dtype, key
+
+
+def test04_depth_behind_a_few_vertices_at_a_time_is_the_same(tmp_path, monkeypatch):
+    """``depth_behind`` cast a block of 3 vertices at a time: the same values as one block
+    for every vertex (the blocks' ends included)."""
+    from mi_npr.strokes import extract as X
+
+    scene = load(
+        tmp_path,
+        '<shape type="cube" id="box"><transform name="to_world"><scale value="0.8"/>'
+        '<rotate y="1" angle="30"/></transform></shape>'
+        '<shape type="sphere" id="ball"><point name="center" value="1.2, 0.3, -1.5"/>'
+        '<float name="radius" value="0.6"/></shape>',
+    )
+    sensor = scene.sensors()[0]
+    whole = X.extract_strokes(scene, sensor, resample=4.0)
+    monkeypatch.setattr(X, "BESIDE_BLOCK", 3)
+    blocks = X.extract_strokes(scene, sensor, resample=4.0)
+    assert sum(len(s) for s in whole) > 10 and len(whole) == len(blocks)
+    for a, b in zip(whole, blocks, strict=True):
+        np.testing.assert_array_equal(a.depth_behind, b.depth_behind)
+    assert any(np.isfinite(s.depth_behind).any() for s in whole)

@@ -35,12 +35,13 @@ import numpy as np
 from ..errors import ParameterError, shown
 from ..gbuffer import Projection
 from ..kernels.edges import dihedral
+from ..memory import release_freed_memory
 from ..params import Param, check_arg, integer_range, real_range
 from ..raycast import cast, film_grid, pixel_rays
 from ..raytree.tracer import MAX_DEPTH
 from ..scene import ObjectTable, object_table
 from .chain import chain_order
-from .edges import FeatureEdges, Projector, ViewEdges, release_freed_memory, view_edges
+from .edges import FeatureEdges, Projector, ViewEdges, view_edges
 from .model import KINDS, Stroke, Strokes
 from .outlines import ids_and_depths, outline_strokes
 from .raytree import raytree_strokes
@@ -54,6 +55,8 @@ ITERATIONS = 12
 MIN_PIECE = 0.05
 #: Where ``depth_behind`` looks, in pixels to either side of a vertex.
 BESIDE = 1.0
+#: Vertices whose ``depth_behind`` is cast at once (bounds the memory of the hits).
+BESIDE_BLOCK = 1 << 17
 
 
 def _film_param_to_3d(u: np.ndarray, wa: np.ndarray, wb: np.ndarray) -> np.ndarray:
@@ -69,8 +72,8 @@ CLIP_BLOCK = 1 << 16
 #: are added to a launch until either is reached (bounds the memory of the samples and the
 #: edges, ~40 and ~120 bytes each, whatever the film's size; each launch traces the ray loop
 #: again, so the bisections of all the launches wait for one launch after them).
-SAMPLES = 1 << 19
-EDGE_CHUNK = 1 << 17
+SAMPLES = 1 << 18
+EDGE_CHUNK = 1 << 16
 
 
 def _clip(proj: Projector, edges: FeatureEdges) -> dict[str, np.ndarray]:
@@ -516,9 +519,14 @@ def _add_depth_behind(
     size = np.array([len(s) for s in strokes])
     pts = np.concatenate([s.points for s in strokes])
     nrm = _normals(pts, size, np.array([s.closed for s in strokes]))
-    side = np.concatenate([pts + BESIDE * nrm, pts - BESIDE * nrm])
-    depth = _depth_seen(scene, sensor, table, side, camera)
-    behind = np.maximum(depth[: len(pts)], depth[len(pts) :])
+    # the two sides of a block of vertices at a time (memory: the hits of one block)
+    behind = np.empty(len(pts))
+    for b in range(0, len(pts), BESIDE_BLOCK):
+        p, n = pts[b : b + BESIDE_BLOCK], nrm[b : b + BESIDE_BLOCK]
+        depth = _depth_seen(
+            scene, sensor, table, np.concatenate([p + BESIDE * n, p - BESIDE * n]), camera
+        )
+        behind[b : b + len(p)] = np.maximum(depth[: len(p)], depth[len(p) :])
     for s, part in zip(strokes, np.split(behind, np.cumsum(size)[:-1]), strict=True):
         s.depth_behind = part
 

@@ -238,8 +238,10 @@ def rasterize(strokes: Strokes, style: Style) -> tuple[np.ndarray, np.ndarray]:
     """The drawn strokes as coverage (H, W) float32 in [0, 1] and premultiplied linear RGB
     ink (H, W, 3) float32 (module docstring)."""
     h, w = strokes.height, strokes.width
-    alpha = np.zeros(h * w)
-    ink = np.zeros((h * w, 3))
+    # single precision throughout (what is returned): a pixel's strokes are laid in order,
+    # each step's rounding ~1e-7 of [0, 1]
+    alpha = np.zeros(h * w, np.float32)
+    ink = np.zeros((h * w, 3), np.float32)
     drawn = [s for s in strokes if style.drawn(s)]
     # a block of strokes at a time, in order (memory: the block's covered pixels): each
     # pixel gets the same strokes in the same order as from all at once
@@ -248,7 +250,7 @@ def rasterize(strokes: Strokes, style: Style) -> tuple[np.ndarray, np.ndarray]:
         stroke, idx, a = _coverage(block, style, strokes.depth_range, w, h)
         if not len(idx):
             continue
-        col = np.asarray([style.kind_color(s) for s in block], np.float64).reshape(-1, 3)
+        col = np.asarray([style.kind_color(s) for s in block], np.float32).reshape(-1, 3)
         # strokes laid in order: per pixel, its strokes one level at a time (the k-th stroke
         # over each pixel at level k), every pixel of a level at once
         order = np.lexsort((stroke, idx))
@@ -258,10 +260,10 @@ def rasterize(strokes: Strokes, style: Style) -> tuple[np.ndarray, np.ndarray]:
         by_level = np.argsort(level, kind="stable")
         cut = np.searchsorted(level[by_level], np.arange(1, int(level.max()) + 1))
         for sel in np.split(by_level, cut):
-            i, c = idx[sel], a[sel]
+            i, c = idx[sel], a[sel].astype(np.float32)
             alpha[i] = alpha[i] * (1.0 - c) + c
             ink[i] = ink[i] * (1.0 - c)[:, None] + col[stroke[sel]] * c[:, None]
-    return alpha.reshape(h, w).astype(np.float32), ink.reshape(h, w, 3).astype(np.float32)
+    return alpha.reshape(h, w), ink.reshape(h, w, 3)
 
 
 def on_background(alpha: np.ndarray, ink: np.ndarray, background: np.ndarray) -> np.ndarray:
