@@ -445,6 +445,7 @@ def _draw_strokes(session: SceneSession, gb: GBuffer, p: Mapping[str, Any], **_:
         session.objects,
         p,
         depth_range=depth_range_of(z) if z is not None else None,
+        keep_topology=session.keep_topology,
     )
     out = over_raw(gb, done.alpha, done.ink).with_layers({L.STROKES: done.alpha})
     meta = json.dumps({k: v for k, v in p.items() if v is not None})

@@ -174,6 +174,11 @@ def render_layers(
     if session.source is not None:
         gb = gb.with_metadata(**{"mi_npr/scene": session.source})
     out = LayeredRender(gb, drawings=tuple(on))
+    # A scene loaded here is drawn once: its last stroke extraction drops the meshes' topology
+    # (the strokes drawing's, unless the lines' SVG extracts again after it)
+    once = session.source is not None
+    lines_extract = "lines" in on and vector and not _lines_reuse_strokes(on)
+    session.keep_topology = not once or lines_extract
     new: dict[str, Any] = {}
     meta: dict[str, str] = {}
     for name, p in on.items():
@@ -204,10 +209,20 @@ def render_layers(
                 # samples, the film, the drawings' temporaries) is freed first: the strokes'
                 # mesh topology and visibility rays take its place, not memory beside it
                 dr.flush_malloc_cache()
+                session.keep_topology = not once
                 out.strokes[LINES_SVG] = lines_as_strokes(
                     session, out.gbuffer, on["lines"], out.vector_strokes
                 )
     return out
+
+
+def _lines_reuse_strokes(on: Mapping[str, Mapping[str, Any]]) -> bool:
+    """Whether :func:`lines_as_strokes` takes the strokes of the ``strokes`` drawing of a render
+    of the drawings ``on`` (their parameters) instead of extracting its own."""
+    if "strokes" not in on or "lines" not in on:
+        return False
+    crease = float(on["lines"]["crease_angle"])
+    return crease in (0.0, float(on["strokes"]["crease_angle"]))
 
 
 #: The layer of ``<stem>_lines.svg`` that holds the ``lines`` drawing.
@@ -273,6 +288,7 @@ def lines_as_strokes(
                 max_qi=0,  # the visible strokes alone: no ray past the first surface
                 depth_range=depth_range_of(z) if z is not None else None,
                 depth_behind=False,  # the layer's style has no gray: never read
+                keep_topology=session.keep_topology,
                 # the intersection lines of the meshes whose pixels touch: the visible ones
                 intersect=touching_pairs(gb.numpy(L.OBJECT_ID)) if L.OBJECT_ID in gb else None,
             )

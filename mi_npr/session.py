@@ -69,6 +69,10 @@ class SceneSession:
     sensor: mi.Sensor
     source: str | None = None  # the XML path, when loaded from a file
     spp: int | None = None  # the beauty's sample count asked for (None: the sampler's)
+    #: Whether a stroke extraction keeps the meshes' topology for later views of this scene
+    #: (:func:`mi_npr.strokes.extract_strokes`); a render sets it off for its last extraction
+    #: from a scene it loaded itself, which no other view can be drawn from.
+    keep_topology: bool = True
     _table: ObjectTable | None = field(default=None, repr=False)
 
     @classmethod

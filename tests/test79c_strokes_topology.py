@@ -134,3 +134,57 @@ def test04_depth_behind_a_few_vertices_at_a_time_is_the_same(tmp_path, monkeypat
     for a, b in zip(whole, blocks, strict=True):
         np.testing.assert_array_equal(a.depth_behind, b.depth_behind)
     assert any(np.isfinite(s.depth_behind).any() for s in whole)
+
+
+def _strokes_key(st) -> list:
+    return [(s.kind, s.qi, s.closed, s.points.round(6).tolist()) for s in st]
+
+
+def test05_a_scene_seen_once_drops_its_topology(tmp_path):
+    """``keep_topology=False`` gives the same strokes and leaves no topology kept for the
+    scene (with ``True`` the next view reuses it: the same object). A render of a scene it
+    loads itself keeps none; of a loaded scene, keeps it; with the strokes drawing and the
+    lines' SVG, dropped once, the SVG's strokes those of the lines alone (at another crease
+    angle the SVG extracts again: the strokes drawing keeps the topology for it)."""
+    from mi_npr.pipeline import _lines_reuse_strokes, render_layers
+    from mi_npr.strokes import extract as X
+
+    grid_obj(tmp_path / "sheet.obj")
+    scene = load(tmp_path, SHEET_AND_BOX.format(tmp_path / "sheet.obj"))
+    sensor, table = scene.sensors()[0], object_table(scene)
+    E._LAST[0] = None
+    kept = X.extract_strokes(scene, sensor, table)
+    topo = E.topology(table)
+    assert E._LAST[0] is not None
+    dropped = X.extract_strokes(scene, sensor, table, keep_topology=False)
+    assert E._LAST[0] is None
+    assert _strokes_key(kept) == _strokes_key(dropped) and len(kept) > 3
+    assert E.topology(table) is not topo  # built again
+    (tmp_path / "other").mkdir()
+    E.forget_topology(object_table(load(tmp_path / "other", "")))  # another scene's: kept
+    assert E._LAST[0] is not None
+
+    xml = tmp_path / "scene.xml"
+    lines = {"crease_angle": 100.0}
+    E._LAST[0] = None
+    alone = render_layers(str(xml), ["lines"], lines, spp=1)
+    assert E._LAST[0] is None
+    render_layers(scene, ["lines"], lines, spp=1)
+    assert E._LAST[0] is not None
+    E._LAST[0] = None
+    calls = []
+    original = X.forget_topology
+    try:
+        X.forget_topology = lambda t: (calls.append(len(t.shapes)), original(t))
+        both = render_layers(str(xml), ["lines", "strokes"], lines, spp=1)
+    finally:
+        X.forget_topology = original
+    assert calls == [len(table.shapes)] and E._LAST[0] is None  # dropped once, at the end
+    assert both.vector_strokes is not None
+    a, b = alone.strokes["lines"].strokes, both.strokes["lines"].strokes
+    assert _strokes_key(a) == _strokes_key(b) and len(a) > 3
+    c = {"crease_angle": 134.0}
+    assert _lines_reuse_strokes({"lines": c, "strokes": c})
+    assert _lines_reuse_strokes({"lines": {"crease_angle": 0.0}, "strokes": c})
+    assert not _lines_reuse_strokes({"lines": {"crease_angle": 100.0}, "strokes": c})
+    assert not _lines_reuse_strokes({"lines": c})

@@ -74,10 +74,12 @@ def draw_strokes(
     table: ObjectTable,
     params: Mapping[str, Any],
     depth_range: tuple[float, float] | None = None,
+    keep_topology: bool = True,
 ) -> StrokeDrawing:
     """Every stroke of ``scene`` seen by ``sensor``, styled and rasterised, with the drawing's
     ``params`` (all of :data:`STROKES_PARAMS`, checked). ``depth_range``: the frame's nearest
-    and farthest finite depth (the G-buffer's ``Z``)."""
+    and farthest finite depth (the G-buffer's ``Z``); ``keep_topology``: as
+    :func:`~mi_npr.strokes.extract_strokes`'s."""
     style = style_from(params)
     kept = ("crease_angle", "chain_angle", "max_qi", "raytree_depth")
     strokes = extract_strokes(
@@ -91,6 +93,7 @@ def draw_strokes(
         depth_range=depth_range,
         params={k: params[k] for k in kept},
         resample=GRAY_SPACING if style.gray else None,
+        keep_topology=keep_topology,
     )
     alpha, ink = rasterize(strokes, style)
     return StrokeDrawing(strokes, style, alpha, ink)

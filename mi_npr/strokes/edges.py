@@ -531,14 +531,7 @@ def topology(table: ObjectTable, pairs: np.ndarray | None = None) -> Topology:
     the buffers it was built from so that their Dr.Jit indices are not reused meanwhile.
     ``pairs``: the object pairs whose intersection lines a new topology starts with
     (:meth:`Topology.of`; a kept one adds others when asked, :meth:`Topology.search`)."""
-    buffers, key = [], []
-    for oid in sorted(table.shapes):
-        shape = table.shapes[oid]
-        if shape.is_mesh():
-            vp, fb = shape.vertex_positions_buffer(), shape.faces_buffer()
-            buffers += [vp, fb]
-            key.append((oid, vp.index, fb.index, dr.width(vp), dr.width(fb)))
-    key_t = tuple(key)
+    key_t, buffers = _mesh_key(table)
     entry = _LAST[0]
     if entry is not None and entry[0] == key_t:
         return entry[2]
@@ -547,6 +540,28 @@ def topology(table: ObjectTable, pairs: np.ndarray | None = None) -> Topology:
     release_freed_memory()
     _LAST[0] = (key_t, buffers, topo)
     return topo
+
+
+def _mesh_key(table: ObjectTable) -> tuple[tuple, list]:
+    """What identifies the meshes of ``table`` for :func:`topology`'s entry (per mesh its
+    object id and its vertex and face buffers' Dr.Jit indices and sizes), and the buffers."""
+    buffers, key = [], []
+    for oid in sorted(table.shapes):
+        shape = table.shapes[oid]
+        if shape.is_mesh():
+            vp, fb = shape.vertex_positions_buffer(), shape.faces_buffer()
+            buffers += [vp, fb]
+            key.append((oid, vp.index, fb.index, dr.width(vp), dr.width(fb)))
+    return tuple(key), buffers
+
+
+def forget_topology(table: ObjectTable) -> None:
+    """Drop the :class:`Topology` that :func:`topology` keeps, if it is that of ``table``'s
+    meshes (a scene that no other view will be drawn from: its memory is handed back)."""
+    entry = _LAST[0]
+    if entry is not None and entry[0] == _mesh_key(table)[0]:
+        _LAST[0] = None
+        release_freed_memory()
 
 
 class ViewEdges:

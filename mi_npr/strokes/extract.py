@@ -41,7 +41,7 @@ from ..raycast import cast, film_grid, pixel_rays
 from ..raytree.tracer import MAX_DEPTH
 from ..scene import ObjectTable, object_table
 from .chain import chain_order
-from .edges import FeatureEdges, Projector, ViewEdges, view_edges
+from .edges import FeatureEdges, Projector, ViewEdges, forget_topology, view_edges
 from .model import KINDS, Stroke, Strokes
 from .outlines import ids_and_depths, outline_strokes
 from .raytree import raytree_strokes
@@ -618,6 +618,7 @@ def extract_strokes(
     resample: float | None = None,
     depth_behind: bool = True,
     intersect: np.ndarray | None = None,
+    keep_topology: bool = True,
 ) -> Strokes:
     """Every stroke of ``scene`` seen by ``sensor`` (module docstring). ``table``: the scene's
     object table (built if not given); ``depth_range``: the frame's nearest and farthest finite
@@ -633,7 +634,10 @@ def extract_strokes(
     never reads it, such as a style without ``gray``); ``intersect``: the pairs of meshes
     ((K, 2) object ids) whose intersection lines are looked for (default every pair; those a
     view's id image shows side by side, :func:`~mi_npr.strokes.intersect.touching_pairs`, for
-    its visible lines). Parameters as in :data:`EXTRACT_PARAMS`."""
+    its visible lines); ``keep_topology``: keep the meshes' topology for the next view
+    (:func:`~mi_npr.strokes.edges.topology`; ``False``, for a scene seen once, drops it as soon
+    as the mesh strokes are found, before the rest is cast). Parameters as in
+    :data:`EXTRACT_PARAMS`."""
     crease_angle = _arg("crease_angle", crease_angle)
     chain_angle = _arg("chain_angle", chain_angle)
     max_qi = _arg("max_qi", max_qi)
@@ -657,8 +661,12 @@ def extract_strokes(
         direction=proj.forward if proj.ortho else None,
     )
     first = edges.first
-    strokes = _mesh_strokes(_Pieces(scene, table, proj, edges, max_qi), chain_angle)
+    pieces = _Pieces(scene, table, proj, edges, max_qi)
     del edges
+    if not keep_topology:
+        forget_topology(table)
+    strokes = _mesh_strokes(pieces, chain_angle)
+    del pieces
     strokes += outline_strokes(scene, sensor, table, camera, depth_range)
     if raytree_depth:
         strokes += raytree_strokes(scene, sensor, table, camera, raytree_depth)
