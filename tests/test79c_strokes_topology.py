@@ -175,7 +175,7 @@ def test05_a_scene_seen_once_drops_its_topology(tmp_path):
     calls = []
     original = X.forget_topology
     try:
-        X.forget_topology = lambda t: (calls.append(len(t.shapes)), original(t))
+        X.forget_topology = lambda t, view=None: (calls.append(len(t.shapes)), original(t, view))
         both = render_layers(str(xml), ["lines", "strokes"], lines, spp=1)
     finally:
         X.forget_topology = original
@@ -188,3 +188,65 @@ def test05_a_scene_seen_once_drops_its_topology(tmp_path):
     assert _lines_reuse_strokes({"lines": {"crease_angle": 0.0}, "strokes": c})
     assert not _lines_reuse_strokes({"lines": {"crease_angle": 100.0}, "strokes": c})
     assert not _lines_reuse_strokes({"lines": c})
+
+
+def _weld_reference(v: np.ndarray, tol: float) -> np.ndarray:
+    """Welded ids from the definition: every pair closer than ``tol``, joined transitively,
+    groups numbered in the order of their first vertex."""
+    n = len(v)
+    close = np.linalg.norm(v[:, None] - v[None], axis=2) < tol
+    label = np.full(n, -1)
+    k = 0
+    for i in range(n):
+        if label[i] >= 0:
+            continue
+        todo = [i]
+        label[i] = k
+        while todo:
+            j = todo.pop()
+            for m in np.flatnonzero(close[j] & (label < 0)):
+                label[m] = k
+                todo.append(m)
+        k += 1
+    return label
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test06_weld_against_every_pair(dtype):
+    """``weld`` against all pairs' distances: exact duplicates, chains of near ones (joined
+    transitively though their ends lie farther apart than the tolerance), lone points; one
+    point, none; float32 and float64 positions."""
+    rng = np.random.default_rng(11)
+    base = rng.uniform(-1, 1, (60, 3))
+    chain = base[0] + np.outer(np.arange(5), [0.6e-3, 0, 0])  # steps under 1e-3, ends 2.4e-3
+    v = np.concatenate([base, base[rng.integers(0, 60, 40)], chain, base[:7] + 2e-4])
+    v = v[rng.permutation(len(v))].astype(dtype)
+    got = E.weld(v, 1e-3)
+    want = _weld_reference(v.astype(np.float64), 1e-3)
+    np.testing.assert_array_equal(got, want)
+    assert got.max() + 1 < len(v) - 40
+    np.testing.assert_array_equal(E.weld(v[:1], 1e-3), [0])
+    assert len(E.weld(v[:0], 1e-3)) == 0
+
+
+def test07_the_last_views_rows_without_the_planes(tmp_path):
+    """A topology without its planes (:meth:`Topology.rows_only`) gives a view the same rows;
+    the single-precision soup the same intersection segments as in double precision."""
+    from mi_npr.strokes.intersect import intersections
+
+    grid_obj(tmp_path / "sheet.obj")
+    scene = load(tmp_path, SHEET_AND_BOX.format(tmp_path / "sheet.obj"))
+    table = object_table(scene)
+    view = E.view_edges(table, ORIGIN, 134.0)
+    whole = view.take(slice(None))
+    view.topo = view.topo.rows_only()
+    assert len(view.topo.unit) == 0 and len(view.topo.offset) == 0
+    slim = view.take(slice(None))
+    for key in whole.__dataclass_fields__:
+        np.testing.assert_array_equal(getattr(slim, key), getattr(whole, key), err_msg=key)
+    v, f, oid = E.mesh_arrays(table)
+    assert v.dtype == np.float32
+    single, double = intersections(v, f, oid), intersections(v.astype(np.float64), f, oid)
+    assert len(single[0]) > 0
+    for a, b in zip(single, double, strict=True):
+        np.testing.assert_array_equal(a, b)

@@ -45,8 +45,8 @@ segment's parameter, so the clipped ends lie exactly on the frame.
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import drjit as dr
@@ -115,10 +115,12 @@ class FeatureEdges:
 
 
 def mesh_arrays(table: ObjectTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every mesh of the object table as one triangle soup: vertex positions (V, 3) float64,
-    faces (F, 3) into them (int32; int64 past 2**31 vertices), and each face's object id (F,)
-    int32, the faces of one object contiguous, objects in increasing id (a face's primitive
-    index is its position among its object's faces)."""
+    """Every mesh of the object table as one triangle soup: vertex positions (V, 3) (float32
+    where every mesh stores single precision, as a single-precision variant's do: the values
+    themselves, in half the memory of float64; else float64), faces (F, 3) into them (int32;
+    int64 past 2**31 vertices), and each face's object id (F,) int32, the faces of one object
+    contiguous, objects in increasing id (a face's primitive index is its position among its
+    object's faces)."""
     meshes = []
     for oid in sorted(table.shapes):
         shape = table.shapes[oid]
@@ -131,7 +133,8 @@ def mesh_arrays(table: ObjectTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     n_v = sum(dr.width(vp) // 3 for _, vp, _ in meshes)
     n_f = sum(dr.width(fb) // 3 for _, _, fb in meshes)
     # filled in place, one mesh at a time: no second copy of the soup while it is joined
-    v = np.empty((n_v, 3))
+    single = all(dr.type_v(vp) == dr.VarType.Float32 for _, vp, _ in meshes)
+    v = np.empty((n_v, 3), np.float32 if single else np.float64)
     faces = np.empty((n_f, 3), np.int32 if n_v < 2**31 else np.int64)
     oids = np.empty(n_f, np.int32)
     base = at = 0
@@ -148,12 +151,14 @@ def mesh_arrays(table: ObjectTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 
 def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
     """A welded vertex id for each row of ``v`` (V, 3): vertices closer than ``tolerance``
-    (transitively) share one id, numbered 0..K-1."""
+    (transitively) share one id, numbered 0..K-1 in the order of each group's first vertex.
+    The close pairs come from SciPy's k-d tree; the groups are their connected components,
+    found by propagating each group's least index along the pairs (with pointer jumping: a
+    few rounds for the small groups of a mesh's seams) rather than through a sparse graph,
+    whose copies of the pairs would double their memory."""
     if len(v) == 0:
         return np.zeros(0, np.int64)
-    # scipy's spatial and sparse modules take ~0.2 s to import: only scenes with meshes pay it
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
+    # scipy's spatial module takes ~0.2 s to import: only scenes with meshes pay it
     from scipy.spatial import cKDTree
 
     # an unbalanced tree without shrunk node boxes: built in a third of the time, the same pairs
@@ -161,12 +166,17 @@ def weld(v: np.ndarray, tolerance: float) -> np.ndarray:
     pairs = tree.query_pairs(tolerance, output_type="ndarray")
     del tree
     n = len(v)
-    if len(pairs) == 0:
-        return np.arange(n, dtype=np.int64)
-    g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    del pairs
-    _, labels = connected_components(g, directed=False)
-    return labels.astype(np.int64)
+    least = np.arange(n)
+    a, b = pairs[:, 0], pairs[:, 1]
+    while True:
+        m = np.minimum(least[a], least[b])
+        if np.array_equal(least[a], m) and np.array_equal(least[b], m):
+            break
+        np.minimum.at(least, a, m)
+        np.minimum.at(least, b, m)
+        least = least[least]  # each index's least, then that one's: halves the paths
+    first = least == np.arange(n)  # a group's least index: its first vertex
+    return (np.cumsum(first) - 1)[least]
 
 
 #: Half-edges grouped into edges at once while the topology is built (bounds its memory).
@@ -347,9 +357,9 @@ class Topology:
         """The topology of the meshes of ``table`` (their triangle soup, :func:`mesh_arrays`;
         class docstring), with the intersection lines of the object pairs ``pairs`` ((K, 2)
         object ids; default every pair). Built in the order that keeps the fewest arrays alive
-        at once: the intersections and the welded vertices (side by side, from the soup
-        alone), the edges (from the faces and their welded vertices alone), then the faces'
-        planes (from the welded vertices)."""
+        at once: the intersections first (from the soup alone), the welded vertices, the edges
+        (from the faces and their welded vertices alone), then the faces' planes (from the
+        welded vertices)."""
         v, f, face_oid = mesh_arrays(table)
         z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
         if len(f) == 0:
@@ -372,15 +382,15 @@ class Topology:
         heads = np.flatnonzero(np.append(True, face_oid[1:] != face_oid[:-1]))
         first_face = np.zeros(int(face_oid.max()) + 1, np.int64)
         first_face[face_oid[heads]] = heads
-        size = float(np.linalg.norm(v.max(0) - v.min(0))) or 1.0
+        size = float(np.linalg.norm(v.max(0).astype(np.float64) - v.min(0))) or 1.0
         n_keys = len(first_face)
         asked = None if pairs is None else _asked_keys(pairs, n_keys)
-        # the weld on a thread of its own beside the intersection search: SciPy's tree search
-        # leaves Python's lock, which the search's many small numpy calls hold
-        with ThreadPoolExecutor(1) as pool:
-            welding = pool.submit(weld, v, WELD * size)
-            crossings = _crossings(v, f, face_oid, size, asked, n_keys)
-            wid = welding.result().astype(np.int32)
+        # one after the other, not side by side: the two searches' temporaries would add up
+        # (the weld beside the intersection search is 0.6 s sooner on a 2 M-triangle model,
+        # and 30 MB more at the peak of its render)
+        crossings = _crossings(v, f, face_oid, size, asked, n_keys)
+        release_freed_memory()
+        wid = weld(v, WELD * size).astype(np.int32)
         release_freed_memory()
         n_welded = int(wid.max()) + 1
         rep = np.zeros(n_welded, np.int64)
@@ -472,6 +482,13 @@ class Topology:
         base = np.repeat(first, np.diff(np.append(head, len(key))))
         return rows, base + la, base + lb
 
+    def rows_only(self) -> Topology:
+        """This topology without what only classifying a view reads (the faces' planes, the
+        kinds of the last crease angle): what :meth:`ViewEdges.take` needs, the arrays shared,
+        for the last view of a topology no longer kept (its planes freed with it)."""
+        z = np.zeros((0, 3), self.unit.dtype)
+        return dataclasses.replace(self, unit=z, offset=self.offset[:0].copy(), _kinds={})
+
     def prim(self, faces: np.ndarray) -> np.ndarray:
         """The primitive index of each face (its position among its object's faces)."""
         return faces - self.first_face[self.face_oid[faces]]
@@ -555,12 +572,17 @@ def _mesh_key(table: ObjectTable) -> tuple[tuple, list]:
     return tuple(key), buffers
 
 
-def forget_topology(table: ObjectTable) -> None:
+def forget_topology(table: ObjectTable, view: ViewEdges | None = None) -> None:
     """Drop the :class:`Topology` that :func:`topology` keeps, if it is that of ``table``'s
-    meshes (a scene that no other view will be drawn from: its memory is handed back)."""
+    meshes (a scene that no other view will be drawn from: its memory is handed back); a
+    ``view`` of it still to be read keeps only what its rows need
+    (:meth:`Topology.rows_only`)."""
     entry = _LAST[0]
     if entry is not None and entry[0] == _mesh_key(table)[0]:
         _LAST[0] = None
+        if view is not None and view.topo is entry[2]:
+            view.topo = view.topo.rows_only()
+        del entry
         release_freed_memory()
 
 

@@ -661,10 +661,10 @@ def extract_strokes(
         direction=proj.forward if proj.ortho else None,
     )
     first = edges.first
+    if not keep_topology:  # the view's rows alone are read from here on
+        forget_topology(table, edges)
     pieces = _Pieces(scene, table, proj, edges, max_qi)
     del edges
-    if not keep_topology:
-        forget_topology(table)
     strokes = _mesh_strokes(pieces, chain_angle)
     del pieces
     strokes += outline_strokes(scene, sensor, table, camera, depth_range)

@@ -258,7 +258,7 @@ def intersections(
             yield np.concatenate([a for a, _ in held]), np.concatenate([b for _, b in held])
 
     def test(fa: np.ndarray, fb: np.ndarray) -> tuple[np.ndarray, ...]:
-        ok, p, q = segments(v[f[fa]], v[f[fb]])
+        ok, p, q = segments(v[f[fa]].astype(np.float64), v[f[fb]].astype(np.float64))
         return p[ok], q[ok], fa[ok], fb[ok]
 
     # this thread finds the candidates (many small numpy calls, which hold the GIL) while the
