@@ -26,7 +26,7 @@ Python).
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -48,6 +48,7 @@ from .scene import merge_defines
 from .session import SceneSession
 from .strokes import Strokes, extract_strokes
 from .strokes.drawing import StrokeDrawing, depth_range_of
+from .strokes.edges import Projector, prefetch_topology, wait_for_topology
 from .strokes.intersect import touching_pairs
 from .strokes.style import make_style
 
@@ -168,8 +169,14 @@ def render_layers(
     beauty = integ.beauty if hasattr(integ, "npr_gbuffer") else integ
     if gbuffer is None:
         gbuffer = render_gbuffer(
-            session, beauty=beauty, spp=session.spp, seed=seed, progress=progress
+            session,
+            beauty=beauty,
+            spp=session.spp,
+            seed=seed,
+            progress=progress,
+            before_beauty=_topology_ahead(session, on, vector),
         )
+        wait_for_topology()  # beside the beauty only: the drawings' memory does not add to it
     gb = gbuffer
     if session.source is not None:
         gb = gb.with_metadata(**{"mi_npr/scene": session.source})
@@ -214,6 +221,30 @@ def render_layers(
                     session, out.gbuffer, on["lines"], out.vector_strokes
                 )
     return out
+
+
+def _topology_ahead(
+    session: SceneSession, on: Mapping[str, Any], vector: bool
+) -> Callable[[dict[str, Any]], None] | None:
+    """What starts the first stage of the meshes' topology
+    (:func:`mi_npr.strokes.edges.prefetch_topology`: the intersection search and the weld)
+    while the beauty renders, for the drawings of ``on`` that extract strokes: the ``strokes``
+    drawing (every pair of meshes searched for intersection lines) and the ``lines`` drawing's
+    SVG (:func:`lines_as_strokes`: the pairs whose pixels touch in the pixel-centre ids);
+    ``None`` when none does, or the camera is one the strokes refuse."""
+    if "strokes" not in on and not ("lines" in on and vector):
+        return None
+    try:
+        Projector(session.sensor)
+    except ParameterError:
+        return None
+
+    def start(layers: dict[str, Any]) -> None:
+        ids = None if "strokes" in on else np.asarray(layers[L.OBJECT_ID])
+        dr.flush_malloc_cache()  # the pixel-centre pass's temporaries: the search takes their place
+        prefetch_topology(session.objects, None if ids is None else touching_pairs(ids))
+
+    return start
 
 
 def _lines_reuse_strokes(on: Mapping[str, Mapping[str, Any]]) -> bool:

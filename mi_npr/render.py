@@ -339,9 +339,13 @@ def render_gbuffer(
     seed: int = 0,
     source: str | None = None,
     progress: bool = False,
+    before_beauty: Callable[[dict[str, Any]], None] | None = None,
 ) -> GBuffer:
     """The G-buffer of a loaded scene; ``beauty`` is the integrator for ``R G B`` (or none);
-    ``progress``: a progress bar for a long beauty (:func:`beauty_layers`).
+    ``progress``: a progress bar for a long beauty (:func:`beauty_layers`);
+    ``before_beauty``: called with the pixel-centre layers (``{name: (H, W) tensor}``) once
+    they are rendered, before the beauty (to start work that needs them alone, which runs
+    beside the beauty on a thread of its own).
 
     ``spp`` overrides the sensor's sample count for the beauty image (``None`` keeps it). The
     G-buffer channels are always one exact sample per pixel.
@@ -357,6 +361,8 @@ def render_gbuffer(
     with session.step("rendering"):
         table = session.objects
         layers = gbuffer_layers(session.scene, sensor, table, shade=beauty is None)
+        if before_beauty is not None:
+            before_beauty(layers)
         if beauty is not None:
             layers.update(
                 beauty_layers(session.scene, sensor, beauty, spp or 0, seed, passes, progress)

@@ -250,3 +250,63 @@ def test07_the_last_views_rows_without_the_planes(tmp_path):
     assert len(single[0]) > 0
     for a, b in zip(single, double, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
+    """``prefetch_topology`` runs the intersection search and the weld on another thread; the
+    next ``topology`` of the same meshes goes on from them: every array the same as a build
+    from scratch (with the pairs asked for by the prefetch). One under way refuses another;
+    one of other meshes is dropped; none starts when the topology is kept already. A render
+    with the lines' SVG prefetches and draws the same strokes as the extraction alone."""
+    from mi_npr.pipeline import render_layers
+    from mi_npr.strokes import extract as X
+
+    grid_obj(tmp_path / "sheet.obj")
+    scene = load(tmp_path, SHEET_AND_BOX.format(tmp_path / "sheet.obj"))
+    table = object_table(scene)
+    for pairs in (None, np.array([[1, 2]]), np.zeros((0, 2), np.int64)):
+        E._LAST[0] = None
+        ref = E.Topology.of(table, pairs)
+        assert E.prefetch_topology(table, pairs)
+        assert not E.prefetch_topology(table, pairs)  # one at a time
+        E.wait_for_topology()
+        got = E.topology(table, np.array([[5, 6]]))  # the prefetch's pairs, not these
+        assert E._EARLY[0] is None
+        for key, value in vars(ref).items():
+            if isinstance(value, np.ndarray):
+                np.testing.assert_array_equal(getattr(got, key), value, err_msg=key)
+        for a, b in zip(got.crossings, ref.crossings, strict=True):
+            np.testing.assert_array_equal(a, b)
+        assert got.size == ref.size and (got.searched is None) == (pairs is None)
+    assert not E.prefetch_topology(table)  # kept already
+    (tmp_path / "other").mkdir()
+    other = object_table(load(tmp_path / "other", '<shape type="cube" id="c"/>'))
+    E._LAST[0] = None
+    assert E.prefetch_topology(other)
+    E.topology(table)  # other meshes: the prefetch is waited for and dropped
+    assert E._EARLY[0] is None and E._LAST[0][2].size == ref.size
+
+    E._LAST[0] = None
+    called = []
+    original = E.prefetch_topology
+    try:
+        E.prefetch_topology = lambda *a: called.append(a) or original(*a)
+        import mi_npr.pipeline as P
+
+        P.prefetch_topology = E.prefetch_topology
+        r = render_layers(scene, ["lines"], {"crease_angle": 100.0}, spp=1)
+    finally:
+        E.prefetch_topology = original
+        P.prefetch_topology = original
+    assert len(called) == 1 and E._EARLY[0] is None
+    E._LAST[0] = None
+    ids = r.gbuffer.numpy("object_id.V")
+    from mi_npr.strokes.intersect import touching_pairs
+
+    alone = X.extract_strokes(
+        scene, scene.sensors()[0], table, crease_angle=100.0, max_qi=0, depth_behind=False,
+        intersect=touching_pairs(ids),
+    )  # fmt: skip
+    drawn = r.strokes["lines"].strokes
+    found = {tuple(map(tuple, s.points.round(6))) for s in alone}
+    assert len(drawn) > 3 and all(tuple(map(tuple, s.points.round(6))) in found for s in drawn)

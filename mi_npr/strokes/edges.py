@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import threading
 from dataclasses import dataclass, field
 
 import drjit as dr
@@ -316,6 +317,31 @@ def _crossings(
     return p[keep], q[keep], fa, fb, la[keep], lb[keep]
 
 
+def _first_faces(face_oid: np.ndarray) -> np.ndarray:
+    """The index of each object id's first face (faces of one object contiguous)."""
+    heads = np.flatnonzero(np.append(True, face_oid[1:] != face_oid[:-1]))
+    first_face = np.zeros(int(face_oid.max()) + 1, np.int64)
+    first_face[face_oid[heads]] = heads
+    return first_face
+
+
+def _early_stage(
+    v: np.ndarray, f: np.ndarray, face_oid: np.ndarray, pairs: np.ndarray | None
+) -> tuple[float, np.ndarray | None, tuple[np.ndarray, ...], np.ndarray]:
+    """What :meth:`Topology.of` takes from the vertex positions themselves (no Dr.Jit call):
+    the meshes' size (the diagonal of their box), the keys of the object pairs searched, the
+    intersection segments (:func:`_crossings`) and the welded vertex ids (int32), one after
+    the other, not side by side (their temporaries would add up)."""
+    size = float(np.linalg.norm(v.max(0).astype(np.float64) - v.min(0))) or 1.0
+    n_keys = len(_first_faces(face_oid))
+    asked = None if pairs is None else _asked_keys(pairs, n_keys)
+    crossings = _crossings(v, f, face_oid, size, asked, n_keys)
+    release_freed_memory()
+    wid = weld(v, WELD * size).astype(np.int32)
+    release_freed_memory()
+    return size, asked, crossings, wid
+
+
 @dataclass(eq=False)
 class Topology:
     """What of the feature edges does not depend on the camera, kept small (a scene's meshes have
@@ -353,13 +379,17 @@ class Topology:
     views: int = 0
 
     @classmethod
-    def of(cls, table: ObjectTable, pairs: np.ndarray | None = None) -> Topology:
+    def of(
+        cls, table: ObjectTable, pairs: np.ndarray | None = None, early: tuple | None = None
+    ) -> Topology:
         """The topology of the meshes of ``table`` (their triangle soup, :func:`mesh_arrays`;
         class docstring), with the intersection lines of the object pairs ``pairs`` ((K, 2)
         object ids; default every pair). Built in the order that keeps the fewest arrays alive
         at once: the intersections first (from the soup alone), the welded vertices, the edges
         (from the faces and their welded vertices alone), then the faces' planes (from the
-        welded vertices)."""
+        welded vertices). ``early``: what :func:`_early_stage` made of this soup already (on
+        another thread, :func:`prefetch_topology`): the build goes on from there (``pairs``
+        unused)."""
         v, f, face_oid = mesh_arrays(table)
         z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
         if len(f) == 0:
@@ -379,19 +409,8 @@ class Topology:
                 z.astype(bool),
                 crossings,
             )
-        heads = np.flatnonzero(np.append(True, face_oid[1:] != face_oid[:-1]))
-        first_face = np.zeros(int(face_oid.max()) + 1, np.int64)
-        first_face[face_oid[heads]] = heads
-        size = float(np.linalg.norm(v.max(0).astype(np.float64) - v.min(0))) or 1.0
-        n_keys = len(first_face)
-        asked = None if pairs is None else _asked_keys(pairs, n_keys)
-        # one after the other, not side by side: the two searches' temporaries would add up
-        # (the weld beside the intersection search is 0.6 s sooner on a 2 M-triangle model,
-        # and 30 MB more at the peak of its render)
-        crossings = _crossings(v, f, face_oid, size, asked, n_keys)
-        release_freed_memory()
-        wid = weld(v, WELD * size).astype(np.int32)
-        release_freed_memory()
+        first_face = _first_faces(face_oid)
+        size, asked, crossings, wid = early or _early_stage(v, f, face_oid, pairs)
         n_welded = int(wid.max()) + 1
         rep = np.zeros(n_welded, np.int64)
         rep[wid[::-1]] = np.arange(len(wid))[::-1]
@@ -553,10 +572,64 @@ def topology(table: ObjectTable, pairs: np.ndarray | None = None) -> Topology:
     if entry is not None and entry[0] == key_t:
         return entry[2]
     entry = _LAST[0] = None  # the old one's memory first
-    topo = Topology.of(table, pairs)
+    early = _take_early(key_t)
+    topo = Topology.of(table, pairs, early)
+    del early
     release_freed_memory()
     _LAST[0] = (key_t, buffers, topo)
     return topo
+
+
+#: The first stage of a build started on another thread (:func:`prefetch_topology`): one
+#: ``(key, thread, holder)``, ``holder["early"]`` its result once done.
+_EARLY: list = [None]
+
+
+def prefetch_topology(table: ObjectTable, pairs: np.ndarray | None = None) -> bool:
+    """Start the part of :func:`topology`'s build for ``table`` that reads only the vertex
+    positions (:func:`_early_stage`: the intersection search of ``pairs``, then the weld) on
+    a thread of its own, and return at once: whether it started (not when the topology is
+    kept already, ``table`` has no mesh, or another one is under way). That part is numpy and
+    SciPy work, which leaves Python's lock to the calling thread most of the time, so a render
+    started meanwhile (Dr.Jit waits for its kernels without that lock) runs beside it; its
+    result (the segments and the welded ids, a few bytes a vertex) waits for the next
+    :func:`topology` of the same meshes, which goes on from it."""
+    key_t, _ = _mesh_key(table)
+    entry = _LAST[0]
+    if not key_t or _EARLY[0] is not None or (entry is not None and entry[0] == key_t):
+        return False
+    soup = list(mesh_arrays(table))  # Dr.Jit is read on this thread only
+    holder: dict = {}
+
+    def run() -> None:
+        v, f, face_oid = soup
+        soup.clear()
+        try:
+            holder["early"] = _early_stage(v, f, face_oid, pairs)
+        except BaseException:  # the build starts over on the caller's thread
+            pass
+
+    thread = threading.Thread(target=run, name="mi-npr topology", daemon=True)
+    _EARLY[0] = (key_t, thread, holder)
+    thread.start()
+    return True
+
+
+def wait_for_topology() -> None:
+    """Return once no :func:`prefetch_topology` is running (what follows then does not add
+    its memory to that work's)."""
+    if _EARLY[0] is not None:
+        _EARLY[0][1].join()
+
+
+def _take_early(key: tuple) -> tuple | None:
+    """The prefetched first stage of the meshes ``key``, waited for (``None``: there is none,
+    or it failed); one of other meshes is waited for and dropped."""
+    pending, _EARLY[0] = _EARLY[0], None
+    if pending is None:
+        return None
+    pending[1].join()
+    return pending[2].get("early") if pending[0] == key else None
 
 
 def _mesh_key(table: ObjectTable) -> tuple[tuple, list]:
