@@ -72,8 +72,8 @@ CLIP_BLOCK = 1 << 16
 #: are added to a launch until either is reached (bounds the memory of the samples and the
 #: edges, ~40 and ~120 bytes each, whatever the film's size; each launch traces the ray loop
 #: again, so the bisections of all the launches wait for one launch after them).
-SAMPLES = 1 << 18
-EDGE_CHUNK = 1 << 16
+SAMPLES = 1 << 19
+EDGE_CHUNK = 1 << 17
 
 
 def _clip(proj: Projector, edges: FeatureEdges) -> dict[str, np.ndarray]:
