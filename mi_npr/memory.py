@@ -38,6 +38,8 @@ from typing import Any
 from .errors import MemoryLimitError, ParameterError
 from .params import check_arg, entry
 
+# Besides the estimate: the C library's side of memory (glibc's malloc_trim and arenas).
+
 #: glibc's ``mallopt`` parameter for the most arenas (``M_ARENA_MAX``).
 M_ARENA_MAX = -8
 
@@ -61,9 +63,9 @@ def share_malloc_arena() -> None:
     """Make the threads of this process allocate from one glibc arena (``mallopt(M_ARENA_MAX,
     1)``; elsewhere nothing), for the processes mi-npr runs itself (the command, a batch's
     workers), not for the library inside another program. glibc gives a thread that allocates
-    while another does an arena of its own, whose pages stay with it: the threads that search
-    a large model's intersections and weld its vertices beside the main thread left ~50 MB
-    more resident on the tutorials' Lego model than one arena does, at the same speed (their
+    while another does an arena of its own, whose pages stay with it: the strokes' helper
+    threads (the intersection search beside the beauty and its pool) left 20-50 MB more
+    resident on the tutorials' Lego model than one arena does, at the same speed (their
     allocations are few and large)."""
     try:
         _libc().mallopt(M_ARENA_MAX, 1)

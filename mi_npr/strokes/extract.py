@@ -635,8 +635,9 @@ def extract_strokes(
     ((K, 2) object ids) whose intersection lines are looked for (default every pair; those a
     view's id image shows side by side, :func:`~mi_npr.strokes.intersect.touching_pairs`, for
     its visible lines); ``keep_topology``: keep the meshes' topology for the next view
-    (:func:`~mi_npr.strokes.edges.topology`; ``False``, for a scene seen once, drops it as soon
-    as the mesh strokes are found, before the rest is cast). Parameters as in
+    (:func:`~mi_npr.strokes.edges.topology`; ``False``, for a scene seen once, drops it once
+    this view's edges are classified: the faces' planes at once, the rows that the visibility
+    rays read when the mesh strokes are found). Parameters as in
     :data:`EXTRACT_PARAMS`."""
     crease_angle = _arg("crease_angle", crease_angle)
     chain_angle = _arg("chain_angle", chain_angle)
