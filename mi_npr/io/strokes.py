@@ -62,13 +62,13 @@ Every stroke is listed, drawn or not (``drawn``: hidden lines with ``hidden`` of
 
 from __future__ import annotations
 
-import itertools
 import json
 import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import orjson
 
 from ..compose import PAPER
 from ..strokes.drawing import StrokeDrawing
@@ -106,68 +106,52 @@ def _finite(a: np.ndarray | None) -> Any:
     return out
 
 
-def _finite_runs(values: np.ndarray, ends: np.ndarray) -> list[Any]:
-    """:func:`_finite` of each run ``values[ends[k - 1]:ends[k]]``, from one :func:`_finite` of
-    them all."""
-    rows = _finite(values)
-    bounds = [0, *np.asarray(ends).tolist()]
-    return [rows[a:b] for a, b in itertools.pairwise(bounds)]
-
-
-def _finite_each(arrays: list[np.ndarray | None]) -> list[Any]:
-    """:func:`_finite` of each array (all of one shape but the first axis, or ``None``), in
-    one :func:`_finite` of them all."""
-    present = [a for a in arrays if a is not None]
-    if not present:
-        return [None] * len(arrays)
-    values = np.concatenate([np.asarray(a, np.float64) for a in present])
-    pieces = iter(_finite_runs(values, np.cumsum([len(a) for a in present])))
-    return [None if a is None else next(pieces) for a in arrays]
-
-
-#: Strokes whose JSON rows are made at once (memory: until a block is text, each of its numbers
-#: is a Python object).
+#: Strokes whose JSON rows are made at once (memory: the block's rows, then its text).
 JSON_BLOCK = 1024
 
 
-def _json_rows(drawing: StrokeDrawing, first: int, widths: Any, opacity: Any, ends: Any) -> str:
+def _numbers(a: np.ndarray | None, shape: tuple[int, ...] = ()) -> np.ndarray | None:
+    """``a`` as a contiguous float64 array (what orjson writes as nested lists of numbers,
+    the non-finite ones as ``null``), or ``None``."""
+    if a is None:
+        return None
+    return np.ascontiguousarray(np.asarray(a, np.float64).reshape(-1, *shape))
+
+
+def _json_rows(drawing: StrokeDrawing, first: int, widths: Any, opacity: Any, ends: Any) -> bytes:
     """The JSON text of the rows of the strokes ``first`` to ``first + len(ends)`` (``widths``,
     ``opacity``: their vertices'; ``ends``: where each one's end, counted from the first),
-    joined by commas."""
+    joined by commas (orjson: numpy arrays written directly, each number the shortest text that
+    reads back as the same float64)."""
     st, style = drawing.strokes, drawing.style
     strokes = st.strokes[first : first + len(ends)]
-    columns = {
-        "points": _finite_each([s.points for s in strokes]),
-        "position": _finite_each([s.position for s in strokes]),
-        "depth": _finite_each([s.depth for s in strokes]),
-        "depth_behind": _finite_each([s.depth_behind for s in strokes]),
-        "width": _finite_runs(widths, ends),
-        "opacity": _finite_runs(opacity, ends),
-    }
+    bounds = [0, *np.asarray(ends).tolist()]
     rows = []
     for i, s in enumerate(strokes):
-        oid = np.asarray(s.object_id, np.int64).tolist()
-        row = {
-            "id": first + i,
-            "kind": s.kind,
-            "object_id": oid[0],
-            "object": st.name_of(oid[0]),
-            "qi": int(s.qi),
-            "visible": s.qi == 0,
-            "through_glass": bool(s.through_glass),
-            "closed": bool(s.closed),
-            "drawn": style.drawn(s),
-            "points": columns["points"][i],
-            "position": columns["position"][i],
-            "depth": columns["depth"][i],
-            "depth_behind": columns["depth_behind"][i],
-            "object_ids": oid,
-            "prims": np.asarray(s.prim, np.int64).tolist(),
-            "width": columns["width"][i],
-            "opacity": columns["opacity"][i],
-        }
-        rows.append(json.dumps(row, allow_nan=False, separators=(",", ":")))
-    return ",".join(rows)
+        oid = np.ascontiguousarray(s.object_id, np.int64)
+        a, b = bounds[i], bounds[i + 1]
+        rows.append(
+            {
+                "id": first + i,
+                "kind": s.kind,
+                "object_id": int(oid[0]),
+                "object": st.name_of(int(oid[0])),
+                "qi": int(s.qi),
+                "visible": bool(s.qi == 0),
+                "through_glass": bool(s.through_glass),
+                "closed": bool(s.closed),
+                "drawn": bool(style.drawn(s)),
+                "points": _numbers(s.points, (2,)),
+                "position": _numbers(s.position, (3,)),
+                "depth": _numbers(s.depth),
+                "depth_behind": _numbers(s.depth_behind),
+                "object_ids": oid,
+                "prims": np.ascontiguousarray(s.prim, np.int64),
+                "width": _numbers(widths[a:b]),
+                "opacity": _numbers(opacity[a:b]),
+            }
+        )
+    return orjson.dumps(rows, option=orjson.OPT_SERIALIZE_NUMPY)[1:-1]
 
 
 def stroke_json(drawing: StrokeDrawing) -> str:
@@ -189,14 +173,14 @@ def stroke_json(drawing: StrokeDrawing) -> str:
         "objects": {str(k): v for k, v in sorted(st.objects.items())},
     }
     head = json.dumps(doc, allow_nan=False, separators=(",", ":"))
-    pieces = [head[:-1], ',"strokes":[']
+    pieces = [head[:-1].encode(), b',"strokes":[']
     for b in range(0, len(strokes), JSON_BLOCK):
         e = ends[b : b + JSON_BLOCK]
         start = int(ends[b - 1]) if b else 0
         stop = int(e[-1])
-        pieces += [","] if b else []
+        pieces += [b","] if b else []
         pieces.append(_json_rows(drawing, b, widths[start:stop], opacity[start:stop], e - start))
-    return "".join([*pieces, "]}\n"])
+    return b"".join([*pieces, b"]}\n"]).decode()
 
 
 def strokes_on_paper(drawing: StrokeDrawing, paper: Any = PAPER) -> np.ndarray:
