@@ -285,6 +285,13 @@ def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
     assert E.prefetch_topology(other)
     E.topology(table)  # other meshes: the prefetch is waited for and dropped
     assert E._EARLY[0] is None and E._LAST[0][2].size == ref.size
+    E._LAST[0] = None
+    assert E.prefetch_topology(other)
+    E.wait_for_topology()  # done, never taken: a prefetch of other meshes replaces it
+    assert E.prefetch_topology(table) and E._EARLY[0][0] == E._mesh_key(table)[0]
+    E.wait_for_topology()
+    assert not E.prefetch_topology(table)  # its own, done: kept for the next topology()
+    E.topology(table)
 
     E._LAST[0] = None
     called = []

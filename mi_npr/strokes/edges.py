@@ -581,7 +581,8 @@ def topology(table: ObjectTable, pairs: np.ndarray | None = None) -> Topology:
 
 
 #: The first stage of a build started on another thread (:func:`prefetch_topology`): one
-#: ``(key, thread, holder)``, ``holder["early"]`` its result once done.
+#: ``(key, thread, holder, buffers)``, ``holder["early"]`` its result once done (``buffers``:
+#: the meshes' Dr.Jit buffers, held so that their indices in ``key`` are not reused).
 _EARLY: list = [None]
 
 
@@ -589,14 +590,17 @@ def prefetch_topology(table: ObjectTable, pairs: np.ndarray | None = None) -> bo
     """Start the part of :func:`topology`'s build for ``table`` that reads only the vertex
     positions (:func:`_early_stage`: the intersection search of ``pairs``, then the weld) on
     a thread of its own, and return at once: whether it started (not when the topology is
-    kept already, ``table`` has no mesh, or another one is under way). That part is numpy and
+    kept already or under way, ``table`` has no mesh, or another one is still running; one of
+    other meshes that is done is dropped). That part is numpy and
     SciPy work, which leaves Python's lock to the calling thread most of the time, so a render
     started meanwhile (Dr.Jit waits for its kernels without that lock) runs beside it; its
     result (the segments and the welded ids, a few bytes a vertex) waits for the next
     :func:`topology` of the same meshes, which goes on from it."""
-    key_t, _ = _mesh_key(table)
-    entry = _LAST[0]
-    if not key_t or _EARLY[0] is not None or (entry is not None and entry[0] == key_t):
+    key_t, buffers = _mesh_key(table)
+    entry, pending = _LAST[0], _EARLY[0]
+    if pending is not None and pending[0] != key_t and not pending[1].is_alive():
+        pending = _EARLY[0] = None  # a finished one of other meshes, never taken
+    if not key_t or pending is not None or (entry is not None and entry[0] == key_t):
         return False
     soup = list(mesh_arrays(table))  # Dr.Jit is read on this thread only
     holder: dict = {}
@@ -610,7 +614,7 @@ def prefetch_topology(table: ObjectTable, pairs: np.ndarray | None = None) -> bo
             pass
 
     thread = threading.Thread(target=run, name="mi-npr topology", daemon=True)
-    _EARLY[0] = (key_t, thread, holder)
+    _EARLY[0] = (key_t, thread, holder, buffers)
     thread.start()
     return True
 
