@@ -247,13 +247,19 @@ def _topology_ahead(
     return start
 
 
+def _reuses(crease: float, strokes_crease: Any) -> bool:
+    """Whether the lines' SVG at ``crease`` degrees takes the strokes drawing's strokes,
+    extracted at ``strokes_crease`` (``None``: not known): the lines draw no creases, or the
+    same ones."""
+    return float(crease) in (0.0, strokes_crease)
+
+
 def _lines_reuse_strokes(on: Mapping[str, Mapping[str, Any]]) -> bool:
     """Whether :func:`lines_as_strokes` takes the strokes of the ``strokes`` drawing of a render
     of the drawings ``on`` (their parameters) instead of extracting its own."""
     if "strokes" not in on or "lines" not in on:
         return False
-    crease = float(on["lines"]["crease_angle"])
-    return crease in (0.0, float(on["strokes"]["crease_angle"]))
+    return _reuses(on["lines"]["crease_angle"], on["strokes"]["crease_angle"])
 
 
 #: The layer of ``<stem>_lines.svg`` that holds the ``lines`` drawing.
@@ -306,7 +312,7 @@ def lines_as_strokes(
     (a sensor that is not a perspective, thin-lens or orthographic camera), every line pixel."""
     crease = float(params["crease_angle"])
     strokes = None
-    if drawn is not None and crease in (0.0, drawn.strokes.params.get("crease_angle")):
+    if drawn is not None and _reuses(crease, drawn.strokes.params.get("crease_angle")):
         strokes = drawn.strokes
     if strokes is None:
         z = gb.numpy(L.Z) if L.Z in gb else None
