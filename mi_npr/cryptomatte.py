@@ -160,7 +160,7 @@ def _samples(
     idx = dr.arange(mi.UInt32, n) // spp
     x = mi.Float(idx % w) + u.x
     y = mi.Float(idx // w + r0) + u.y
-    ids = cast(scene, pixel_rays(sensor, x, y), table, coherent=False).object_id
+    ids = cast(scene, pixel_rays(sensor, x, y), table).object_id  # a pixel's rays side by side
     dr.eval(x, y, ids)
     return x, y, ids
 
@@ -232,32 +232,73 @@ def _accumulate(
     height: int,
     rfilter: mi.ReconstructionFilter,
     first_row: int = 0,
+    group: int = 1,
 ) -> None:
     """Add the filter weights of samples ``(x, y, ids)`` to the coverage table ``acc`` of the
-    film's rows ``first_row`` to ``first_row + height`` (those rows' pixels x names)."""
+    film's rows ``first_row`` to ``first_row + height`` (those rows' pixels x names).
+
+    The samples are taken ``group`` at a time, one thread each group (a pixel's samples, as
+    :func:`_samples` orders them): the weights of the samples that lie in the pixel of the
+    group's first sample and see its id are summed in the thread, one sum per pixel the filter
+    reaches, and added to the table once per group; every other sample is added on its own.
+    The sums are the same for any order and grouping of the samples (up to float rounding);
+    grouping a pixel's samples turns ``group`` atomic additions into one."""
     x, y, ids = mi.Float(x), mi.Float(y), mi.UInt32(ids)
+    n = dr.width(ids)
     radius = float(rfilter.radius())
     reach = _reach(rfilter)
-    px, py = mi.Int32(dr.floor(x)), mi.Int32(dr.floor(y))
-    # the band's rows as kernel inputs, not constants: every band runs the same kernels
+    offsets = range(-reach, reach + 1)
+    # the band's rows and the sample count as kernel inputs, not constants: every band and
+    # pass runs the same kernels
     first_row, height = dr.opaque(mi.Int32, first_row), dr.opaque(mi.Int32, height)
 
     def weight(d: Any) -> Any:
         return dr.select(dr.abs(d) < radius, dr.maximum(rfilter.eval(d), 0.0), 0.0)
 
-    # The filter is separable: 2 * reach + 1 weights per axis, each pixel offset a product.
-    wx = [weight(x - (mi.Float(px + dx) + 0.5)) for dx in range(-reach, reach + 1)]
-    wy = [weight(y - (mi.Float(py + dy) + 0.5)) for dy in range(-reach, reach + 1)]
-    dr.eval(*wx, *wy)
-    for j, dy in enumerate(range(-reach, reach + 1)):
-        qy = py + dy - first_row
-        for i, dx in enumerate(range(-reach, reach + 1)):
-            qx = px + dx
-            wgt = wx[i] * wy[j]
-            ok = (wgt > 0) & (qx >= 0) & (qx < width) & (qy >= 0) & (qy < height)
-            key = (mi.UInt32(qy) * width + mi.UInt32(qx)) * (n_ids + 1) + ids
-            dr.scatter_reduce(dr.ReduceOp.Add, acc, wgt, key, ok)
-            dr.eval(acc)
+    def cells(px: Any, py: Any, oid: Any) -> list[tuple[Any, Any]]:
+        """The table cell and whether it is in the band, of each pixel the filter reaches
+        from pixel ``(px, py)``, for id ``oid`` (the offsets row by row)."""
+        out = []
+        for dy in offsets:
+            qy = py + dy - first_row
+            for dx in offsets:
+                qx = px + dx
+                ok = (qx >= 0) & (qx < width) & (qy >= 0) & (qy < height)
+                out.append(((mi.UInt32(qy) * width + mi.UInt32(qx)) * (n_ids + 1) + oid, ok))
+        return out
+
+    # the group size and sample count as kernel inputs too: every pass runs the same kernels
+    size, limit = dr.opaque(mi.UInt32, n), dr.opaque(mi.UInt32, group)
+    base = dr.arange(mi.UInt32, (n + group - 1) // group) * limit
+    major = dr.gather(mi.UInt32, ids, base)
+    mx = mi.Int32(dr.floor(dr.gather(mi.Float, x, base)))
+    my = mi.Int32(dr.floor(dr.gather(mi.Float, y, base)))
+    sums = [dr.zeros(mi.Float, dr.width(base)) for _ in range(len(offsets) ** 2)]
+    step = dr.zeros(mi.UInt32, dr.width(base))
+
+    def cond(step: Any, sums: list) -> Any:
+        return step < limit
+
+    def body(step: Any, sums: list) -> tuple[Any, list]:
+        j = base + step
+        live = j < size
+        xs = dr.gather(mi.Float, x, j, live)
+        ys = dr.gather(mi.Float, y, j, live)
+        oid = dr.gather(mi.UInt32, ids, j, live)
+        px, py = mi.Int32(dr.floor(xs)), mi.Int32(dr.floor(ys))
+        mine = live & (oid == major) & (px == mx) & (py == my)
+        # the filter is separable: 2 reach + 1 weights per axis, each pixel offset a product
+        wx = [weight(xs - (mi.Float(px + dx) + 0.5)) for dx in offsets]
+        wy = [weight(ys - (mi.Float(py + dy) + 0.5)) for dy in offsets]
+        wgt = [a * b for a in wy for b in wx]
+        for (key, ok), w in zip(cells(px, py, oid), wgt, strict=True):
+            dr.scatter_reduce(dr.ReduceOp.Add, acc, w, key, live & ~mine & ok & (w > 0))
+        return step + 1, [s + dr.select(mine, w, 0.0) for s, w in zip(sums, wgt, strict=True)]
+
+    _, sums = dr.while_loop((step, sums), cond, body, labels=("step", "sums"))
+    for (key, ok), s in zip(cells(mx, my, major), sums, strict=True):
+        dr.scatter_reduce(dr.ReduceOp.Add, acc, s, key, ok & (s > 0))
+    dr.eval(acc)
 
 
 def ranked_layers(
@@ -345,7 +386,7 @@ def cryptomatte(
             n = min(k, spp - start)
             pass_seed = (seed + p * _PASS_SEED_STEP) % 2**32
             xs, ys, obj = _samples(scene, sensor, table, n, pass_seed, (s0, s1))
-            _accumulate(acc, xs, ys, obj, n_obj, w, r1 - r0, rfilter, r0)
+            _accumulate(acc, xs, ys, obj, n_obj, w, r1 - r0, rfilter, r0, group=n)
             del xs, ys, obj
             p += 1
         cells.append(_shares(acc, r0 * w, (r1 - r0) * w, n_obj))

@@ -264,6 +264,35 @@ def test06b_a_band_of_rows_against_the_brute_force_loop(kind, w, h, first, rows)
     np.testing.assert_allclose(got, ref, atol=2e-6)
 
 
+@pytest.mark.parametrize("kind", ["box", "gaussian", "tent"])
+@pytest.mark.parametrize(("group", "shuffle"), [(4, False), (3, False), (4, True), (7, False)])
+def test06d_grouped_samples_against_the_brute_force_loop(kind, group, shuffle):
+    """Samples taken ``group`` at a time (a pixel's, summed in one thread, as the render
+    passes them): the brute force's coverage whether the groups are a pixel's samples (4 per
+    pixel), straddle pixels (3, 7: groups that do not divide the samples either), or are
+    shuffled (almost every sample on its own), on a 5 x 3 film and a band of it."""
+    import mitsuba as mi
+
+    n, w, h = 3, 5, 3
+    rf, f, xs, ys, ids = random_samples(kind, w, h, 4, n, 13)
+    ids[::4] = 2  # most pixels' first sample and some others share an id
+    ids[1::4] = 2
+    if shuffle:
+        order = np.random.default_rng(5).permutation(len(xs))
+        xs, ys, ids = xs[order], ys[order], ids[order]
+    ref = brute_coverage(xs, ys, ids, n, w, h, f, rf.radius())
+    for first, rows in ((0, h), (1, 1)):
+        acc = mi.Float(np.zeros(rows * w * (n + 1), np.float32))
+        C._accumulate(
+            acc, xs.astype(np.float32), ys.astype(np.float32), ids, n, w, rows, rf, first, group
+        )
+        pixel, col, share = C._shares(acc, first * w, rows * w, n)
+        got = np.zeros((rows * w, n + 1))
+        got[pixel - first * w, col] = share
+        # float32 positions and sums against float64: a few ulps of the shares
+        np.testing.assert_allclose(got, ref[first * w : (first + rows) * w], atol=5e-6)
+
+
 def test06c_bands_estimate_the_same_coverage(monkeypatch):
     """The film ranked in bands of 4 rows (each from its own samples and its neighbours'
     edge rows) agrees with one band: the same top id wherever one band is certain, every
