@@ -395,3 +395,87 @@ def test12_extract_strokes_defaults_are_the_drawings():
     for name in ("crease_angle", "chain_angle", "max_qi", "raytree_depth"):
         assert sig[name].default == drawing[name], name
     assert sig["max_qi"].default == 1
+
+
+def _qi_by_brute_force(v, f, face_oid, glass_oids, origin, points, own, max_qi):
+    """QI and through_glass of ``points`` by intersecting each eye segment with every
+    triangle (Moller-Trumbore in float64), nearest first, as the module docstring counts."""
+    from mi_npr.strokes.visibility import EPSILON
+
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    e1, e2 = b - a, c - a
+    prim = np.arange(len(f)) - np.searchsorted(face_oid, face_oid)  # index within its object
+    qi = np.zeros(len(points), np.int32)
+    glass = np.zeros(len(points), bool)
+    for k, p in enumerate(points):
+        d = p - origin
+        dist = np.linalg.norm(d)
+        d = d / dist
+        h = np.cross(d, e2)
+        det = (e1 * h).sum(1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = origin - a
+            u = (s * h).sum(1) / det
+            q = np.cross(s, e1)
+            w = (q * d).sum(1) / det
+            t = (q * e2).sum(1) / det
+        hit = (np.abs(det) > 1e-12) & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 0)
+        hit &= t < dist * (1 - EPSILON)
+        for o0, p0 in own[k]:
+            hit &= ~((face_oid == o0) & (prim == p0))
+        for j in np.flatnonzero(hit)[np.argsort(t[hit])]:
+            if qi[k] >= max_qi:
+                break
+            if face_oid[j] in glass_oids:
+                glass[k] = True
+            else:
+                qi[k] += 1
+    return qi, glass
+
+
+def test13_a_scene_of_meshes_counts_as_the_brute_force_does(tmp_path, monkeypatch):
+    """In a scene of meshes alone the QI loop runs on preliminary hits (no surface
+    interaction): QI and through_glass of random points (in space, and on the faces, with
+    those faces as their own) equal the brute force's over every triangle, and the loop
+    over full surface interactions gives the same."""
+    from mi_npr.scene import object_table
+    from mi_npr.strokes import visibility as V
+    from mi_npr.strokes.edges import mesh_arrays
+
+    glass = (
+        '<shape type="cube" id="pane"><bsdf type="dielectric"/><transform name="to_world">'
+        '<scale x="0.7" y="0.5" z="0.05"/><translate x="0.1" y="0.6" z="3.5"/></transform>'
+        "</shape>"
+    )
+    box2 = (
+        BOX.replace('id="box"', 'id="box2"')
+        .replace('x="-0.6"', 'x="0.3"')
+        .replace('z="5"', 'z="6.5"')
+    )
+    scene = load(tmp_path, WALL + BOX + box2 + glass)
+    table = object_table(scene)
+    assert V.meshes_only(table)
+    origin = np.array([0.3, 0.8, -0.5])  # test75's camera
+    v, f, face_oid = mesh_arrays(table)
+    v, f, face_oid = np.asarray(v, np.float64), np.asarray(f), np.asarray(face_oid)
+    glass_oids = {table.id_of("pane")}
+    rng = np.random.default_rng(3)
+    space = rng.random((400, 3)) * [3.0, 2.0, 9.0] + [-1.5, -0.2, 1.0]
+    tri = rng.integers(0, len(f), 300)
+    bary = rng.dirichlet([1, 1, 1], 300)
+    on = np.einsum("nk,nkj->nj", bary, v[f[tri]])
+    first = np.searchsorted(face_oid, face_oid)
+    points = np.concatenate([space, on])
+    own = np.zeros((len(points), 2, 2), np.int64)
+    own[len(space) :, 0, 0] = face_oid[tri]
+    own[len(space) :, 0, 1] = tri - first[tri]
+    for max_qi in (1, 8):
+        ref = _qi_by_brute_force(v, f, face_oid, glass_oids, origin, points, own, max_qi)
+        got = V.quantitative_invisibility(scene, table, origin, points, own, max_qi)
+        monkeypatch.setattr(V, "meshes_only", lambda table: False)
+        full = V.quantitative_invisibility(scene, table, origin, points, own, max_qi)
+        monkeypatch.undo()
+        assert ref[0].max() >= min(max_qi, 3) and ref[1].any()  # deep points, and glass
+        for name, (q, g) in (("preliminary", got), ("surface interactions", full)):
+            bad = np.flatnonzero((q != ref[0]) | (g != ref[1]))
+            assert len(bad) == 0, (name, max_qi, bad, q[bad], ref[0][bad])

@@ -3,9 +3,10 @@
 **Quantitative invisibility** (QI, Appel's): the number of surfaces the eye ray from the camera
 origin ``o`` to a point ``P`` crosses *strictly in front of* ``P``. A closed solid in front of
 ``P`` counts twice (its near and its far side), a single sheet once; the back edges of a cube
-count 1 (only its front face lies in front of them). The ray continues past each hit
-(``si.spawn_ray``) until it reaches ``P`` or ``max_qi`` surfaces were counted (the count is
-capped there).
+count 1 (only its front face lies in front of them). The ray continues past each hit until it
+reaches ``P`` or ``max_qi`` surfaces were counted (the count is capped there): in a scene of
+meshes alone along the eye ray itself, from just beyond the hit (:func:`_qi`), else from
+``si.spawn_ray``, which steps off the surface along its normal.
 
 **What does not count.**
 
@@ -257,6 +258,12 @@ def _count(
     return qi, glass
 
 
+def meshes_only(table: ObjectTable) -> bool:
+    """Whether every shape of ``table`` is a mesh (no instance, sphere, curve...): the QI loop
+    then needs the preliminary intersections alone (:func:`_qi`)."""
+    return all(shape.is_mesh() for shape in table.shapes.values())
+
+
 def _qi(
     scene: mi.Scene,
     table: ObjectTable,
@@ -269,35 +276,81 @@ def _qi(
     opaque: bool = True,
 ) -> tuple[mi.UInt32, mi.Bool]:
     """:func:`_count`'s loop, traced but not evaluated; ``opaque``: its zeros made evaluated
-    arrays (not inside another loop, where nothing can be evaluated)."""
+    arrays (not inside another loop, where nothing can be evaluated).
+
+    Each ray continues past a hit from just beyond it. In a scene of meshes alone the hits
+    are preliminary (shape, primitive, distance: no surface interaction, whose virtual call
+    over every shape costs as much as the intersection) and the ray goes on from the hit
+    along ``d``, ``RayEpsilon (1 + max |p|)`` further (the offset of Mitsuba's
+    ``spawn_ray``, along the ray instead of the normal); a hit on the object just passed no
+    farther than that offset again is that surface again (a neighbouring triangle of the
+    edge or vertex the ray went through) and does not count. Otherwise (spheres, curves,
+    instances...) the ray goes on from ``si.spawn_ray``."""
     n = dr.width(P)
     guard = dist * EPSILON
     qi = dr.zeros(mi.UInt32, n)
     glass = dr.zeros(mi.Bool, n)
     active = dist > guard
-    ray_o = mi.Point3f(o)
-    maxt = dist - guard
     steps = dr.zeros(mi.UInt32, n)
-    if opaque:
-        dr.make_opaque(qi, glass, steps)
     limit = max_qi + MAX_PASSES
     own_o0, own_p0, own_o1, own_p1 = own
 
-    def cond(ray_o, maxt, qi, glass, active, steps):
+    def counted(hit: mi.Bool, oid: mi.UInt32, prim: mi.UInt32, flags: mi.UInt32, skip: mi.Bool):
+        mine = ((oid == own_o0) & (prim == own_p0)) | ((oid == own_o1) & (prim == own_p1))
+        mine |= skip
+        is_glass = hit & mi.has_flag(flags, mi.BSDFFlags.DeltaTransmission)
+        invisible = hit & (flags == mi.UInt32(int(mi.BSDFFlags.Null)))
+        return dr.select(hit & ~is_glass & ~invisible & ~mine, 1, 0), is_glass & ~mine
+
+    if meshes_only(table):
+        t0 = dr.zeros(mi.Float, n)
+        last = dr.zeros(mi.UInt32, n)  # the object of the previous hit (0: none yet)
+        step = dr.zeros(mi.Float, n)  # the offset past the previous hit
+        if opaque:
+            dr.make_opaque(qi, glass, steps, t0, last, step)
+
+        def cond(t0, step, last, qi, glass, active, steps):
+            return active
+
+        def body(t0, step, last, qi, glass, active, steps):
+            ray = _bounded(dr.fma(d, t0, o), d, dist - guard - t0)
+            pi = scene.ray_intersect_preliminary(ray, coherent=False)
+            hit = pi.is_valid()
+            oid = table.lookup(pi)
+            again = (oid == last) & (pi.t <= step)
+            add, through = counted(hit, oid, pi.prim_index, pi.shape.bsdf().flags(), again)
+            qi += add
+            glass |= through
+            steps += 1
+            t0 += pi.t
+            p = dr.fma(d, t0, o)
+            step = mi.math.RayEpsilon * (1.0 + dr.max(dr.abs(p)))
+            t0 += step
+            last = oid
+            active = hit & (qi < max_qi) & (steps < limit) & (dist - guard - t0 > 0)
+            return t0, step, last, qi, glass, active, steps
+
+        state = (t0, step, last, qi, glass, active, steps)
+        labels = ("t0", "step", "last", "qi", "glass", "active", "steps")
+        _, _, _, qi, glass, _, _ = dr.while_loop(state, cond, body, labels=labels)
+        return qi, glass
+
+    ray_o = mi.Point3f(o)
+    maxt = dist - guard
+    if opaque:
+        dr.make_opaque(qi, glass, steps)
+
+    def cond_si(ray_o, maxt, qi, glass, active, steps):
         return active
 
-    def body(ray_o, maxt, qi, glass, active, steps):
+    def body_si(ray_o, maxt, qi, glass, active, steps):
         si = scene.ray_intersect(
             _bounded(ray_o, d, maxt), ray_flags=mi.RayFlags.Minimal, coherent=False
         )
         hit = si.is_valid()
-        oid = table.lookup(si)
-        mine = ((oid == own_o0) & (si.prim_index == own_p0)) | (
-            (oid == own_o1) & (si.prim_index == own_p1)
-        )
-        is_glass, invisible = _surface(si, hit)
-        qi += dr.select(hit & ~is_glass & ~invisible & ~mine, 1, 0)
-        glass |= is_glass & ~mine
+        add, through = counted(hit, table.lookup(si), si.prim_index, si.bsdf().flags(), False)
+        qi += add
+        glass |= through
         steps += 1
         ray_o = si.spawn_ray(d).o
         maxt = dr.dot(P - ray_o, d) - guard
@@ -306,8 +359,8 @@ def _qi(
 
     _, _, qi, glass, _, _ = dr.while_loop(
         (ray_o, maxt, qi, glass, active, steps),
-        cond,
-        body,
+        cond_si,
+        body_si,
         labels=("o", "maxt", "qi", "glass", "active", "steps"),
     )
     return qi, glass
