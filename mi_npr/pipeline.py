@@ -226,12 +226,15 @@ def render_layers(
 def _topology_ahead(
     session: SceneSession, on: Mapping[str, Any], vector: bool
 ) -> Callable[[dict[str, Any]], None] | None:
-    """What starts the first stage of the meshes' topology
-    (:func:`mi_npr.strokes.edges.prefetch_topology`: the intersection search and the weld)
-    while the beauty renders, for the drawings of ``on`` that extract strokes: the ``strokes``
-    drawing (every pair of meshes searched for intersection lines) and the ``lines`` drawing's
-    SVG (:func:`lines_as_strokes`: the pairs whose pixels touch in the pixel-centre ids);
-    ``None`` when none does, or the camera is one the strokes refuse."""
+    """What starts the meshes' topology (:func:`mi_npr.strokes.edges.prefetch_topology`)
+    while the beauty renders, for the drawings of ``on`` that extract strokes: for the
+    ``strokes`` drawing the whole of it (every pair of meshes searched for intersection
+    lines); for the ``lines`` drawing's SVG (:func:`lines_as_strokes`: the pairs whose pixels
+    touch in the pixel-centre ids) its first stage alone, the intersection search and the
+    weld (the rest would stay alive through the anti-aliased lines, which come first);
+    ``None`` when none does, or the camera is one the strokes refuse. The beauty keeps both
+    cores busy, so this work is not free, but it takes half the time there that it takes
+    alone on one core after the beauty."""
     if "strokes" not in on and not ("lines" in on and vector):
         return None
     try:
@@ -242,7 +245,8 @@ def _topology_ahead(
     def start(layers: dict[str, Any]) -> None:
         ids = None if "strokes" in on else np.asarray(layers[L.OBJECT_ID])
         dr.flush_malloc_cache()  # the pixel-centre pass's temporaries: the search takes their place
-        prefetch_topology(session.objects, None if ids is None else touching_pairs(ids))
+        pairs = None if ids is None else touching_pairs(ids)
+        prefetch_topology(session.objects, pairs, whole="lines" not in on)
 
     return start
 

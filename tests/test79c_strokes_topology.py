@@ -4,6 +4,8 @@ rows at a time against all at once."""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -253,21 +255,23 @@ def test07_the_last_views_rows_without_the_planes(tmp_path):
 
 
 def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
-    """``prefetch_topology`` runs the intersection search and the weld on another thread; the
-    next ``topology`` of the same meshes goes on from them: every array the same as a build
-    from scratch (with the pairs asked for by the prefetch). One under way refuses another;
-    one of other meshes is dropped; none starts when the topology is kept already. A render
-    with the lines' SVG prefetches and draws the same strokes as the extraction alone."""
+    """``prefetch_topology`` runs the intersection search and the weld (or, ``whole``, the
+    whole build) on another thread; the next ``topology`` of the same meshes goes on from them:
+    every array the same as a build from scratch (with the pairs asked for by the prefetch).
+    One under way refuses another; one of other meshes is dropped; none starts when the
+    topology is kept already. A render of the strokes drawing prefetches the whole build, one
+    with the lines' SVG its first stage, and draws the same strokes as the extraction alone."""
     from mi_npr.pipeline import render_layers
     from mi_npr.strokes import extract as X
 
     grid_obj(tmp_path / "sheet.obj")
     scene = load(tmp_path, SHEET_AND_BOX.format(tmp_path / "sheet.obj"))
     table = object_table(scene)
-    for pairs in (None, np.array([[1, 2]]), np.zeros((0, 2), np.int64)):
+    cases = (None, np.array([[1, 2]]), np.zeros((0, 2), np.int64))
+    for pairs, whole in itertools.product(cases, (False, True)):
         E._LAST[0] = None
         ref = E.Topology.of(table, pairs)
-        assert E.prefetch_topology(table, pairs)
+        assert E.prefetch_topology(table, pairs, whole=whole)
         assert not E.prefetch_topology(table, pairs)  # one at a time
         E.wait_for_topology()
         got = E.topology(table, np.array([[5, 6]]))  # the prefetch's pairs, not these
@@ -293,19 +297,22 @@ def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
     assert not E.prefetch_topology(table)  # its own, done: kept for the next topology()
     E.topology(table)
 
-    E._LAST[0] = None
     called = []
     original = E.prefetch_topology
     try:
-        E.prefetch_topology = lambda *a: called.append(a) or original(*a)
+        E.prefetch_topology = lambda *a, **k: called.append(k["whole"]) or original(*a, **k)
         import mi_npr.pipeline as P
 
         P.prefetch_topology = E.prefetch_topology
+        E._LAST[0] = None
+        render_layers(scene, ["strokes"], spp=1)  # the whole topology beside the beauty
+        E._LAST[0] = None
         r = render_layers(scene, ["lines"], {"crease_angle": 100.0}, spp=1)
     finally:
         E.prefetch_topology = original
         P.prefetch_topology = original
-    assert len(called) == 1 and E._EARLY[0] is None
+    # the lines' SVG: the first stage alone (the rest would stay alive through the lines)
+    assert called == [True, False] and E._EARLY[0] is None
     E._LAST[0] = None
     ids = r.gbuffer.numpy("object_id.V")
     from mi_npr.strokes.intersect import touching_pairs

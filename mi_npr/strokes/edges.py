@@ -390,7 +390,18 @@ class Topology:
         welded vertices). ``early``: what :func:`_early_stage` made of this soup already (on
         another thread, :func:`prefetch_topology`): the build goes on from there (``pairs``
         unused)."""
-        v, f, face_oid = mesh_arrays(table)
+        return cls.from_soup(*mesh_arrays(table), pairs, early)
+
+    @classmethod
+    def from_soup(
+        cls,
+        v: np.ndarray,
+        f: np.ndarray,
+        face_oid: np.ndarray,
+        pairs: np.ndarray | None = None,
+        early: tuple | None = None,
+    ) -> Topology:
+        """:meth:`of` the meshes' triangle soup (:func:`mesh_arrays`: no Dr.Jit call)."""
         z, z3 = np.zeros(0, np.int64), np.zeros((0, 3))
         if len(f) == 0:
             zi = z.astype(np.int32)
@@ -573,29 +584,33 @@ def topology(table: ObjectTable, pairs: np.ndarray | None = None) -> Topology:
         return entry[2]
     entry = _LAST[0] = None  # the old one's memory first
     early = _take_early(key_t)
-    topo = Topology.of(table, pairs, early)
+    topo = early if isinstance(early, Topology) else Topology.of(table, pairs, early)
     del early
     release_freed_memory()
     _LAST[0] = (key_t, buffers, topo)
     return topo
 
 
-#: The first stage of a build started on another thread (:func:`prefetch_topology`): one
-#: ``(key, thread, holder, buffers)``, ``holder["early"]`` its result once done (``buffers``:
+#: The first stage of a build (or a whole one) started on another thread
+#: (:func:`prefetch_topology`): one ``(key, thread, holder, buffers)``, ``holder["early"]`` its
+#: result once done (:func:`_early_stage`'s, or a :class:`Topology`; ``buffers``:
 #: the meshes' Dr.Jit buffers, held so that their indices in ``key`` are not reused).
 _EARLY: list = [None]
 
 
-def prefetch_topology(table: ObjectTable, pairs: np.ndarray | None = None) -> bool:
+def prefetch_topology(
+    table: ObjectTable, pairs: np.ndarray | None = None, whole: bool = False
+) -> bool:
     """Start the part of :func:`topology`'s build for ``table`` that reads only the vertex
-    positions (:func:`_early_stage`: the intersection search of ``pairs``, then the weld) on
-    a thread of its own, and return at once: whether it started (not when the topology is
-    kept already or under way, ``table`` has no mesh, or another one is still running; one of
-    other meshes that is done is dropped). That part is numpy and
+    positions (:func:`_early_stage`: the intersection search of ``pairs``, then the weld; with
+    ``whole``, the whole build) on a thread of its own, and return at once: whether it started
+    (not when the topology is kept already or under way, ``table`` has no mesh, or another one
+    is still running; one of other meshes that is done is dropped). That part is numpy and
     SciPy work, which leaves Python's lock to the calling thread most of the time, so a render
     started meanwhile (Dr.Jit waits for its kernels without that lock) runs beside it; its
-    result (the segments and the welded ids, a few bytes a vertex) waits for the next
-    :func:`topology` of the same meshes, which goes on from it."""
+    result (the segments and the welded ids, a few bytes a vertex; or the whole topology,
+    some 60 bytes a face) waits for the next :func:`topology` of the same meshes, which goes
+    on from it (or takes it)."""
     key_t, buffers = _mesh_key(table)
     entry, pending = _LAST[0], _EARLY[0]
     if pending is not None and pending[0] != key_t and not pending[1].is_alive():
@@ -609,7 +624,10 @@ def prefetch_topology(table: ObjectTable, pairs: np.ndarray | None = None) -> bo
         v, f, face_oid = soup
         soup.clear()
         try:
-            holder["early"] = _early_stage(v, f, face_oid, pairs)
+            if whole:
+                holder["early"] = Topology.from_soup(v, f, face_oid, pairs)
+            else:
+                holder["early"] = _early_stage(v, f, face_oid, pairs)
         except BaseException:  # the build starts over on the caller's thread
             pass
 
