@@ -328,6 +328,20 @@ def test13_near_polylines_of_a_line_by_brute_force():
     assert not near_polylines((h, w), [np.array([[-5.0, -5.0], [-1.0, -2.0]])], radius).any()
 
 
+def test13b_near_polylines_in_blocks_of_segments(monkeypatch):
+    """Random polylines (some leaving the image) sampled a few segments at a time mark the
+    same pixels as all at once."""
+    import mi_npr.contours.vector as V
+
+    rng = np.random.default_rng(8)
+    lines = [rng.random((int(rng.integers(1, 9)), 2)) * [50, 30] - 3 for _ in range(40)]
+    whole = V.near_polylines((30, 50), lines, 1.5)
+    for block in (1, 3, 7):
+        monkeypatch.setattr(V, "NEAR_BLOCK", block)
+        assert np.array_equal(V.near_polylines((30, 50), lines, 1.5), whole)
+    assert whole.any() and not whole.all()
+
+
 def test14_strokes_move_with_their_mask():
     """Tracing does not depend on where the mask lies in the image: shifted by whole pixels in a
     larger image, the same polylines, shifted, in the same order (and none for an empty mask)."""

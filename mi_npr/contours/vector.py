@@ -477,6 +477,10 @@ def trace_strokes(mask: Any, tolerance: float = 0.25) -> list[np.ndarray]:
     return np.split(p[keep], np.cumsum(counts)[:-1]) if len(counts) else []
 
 
+#: Segments sampled at once by :func:`near_polylines`.
+NEAR_BLOCK = 1 << 14
+
+
 def near_polylines(
     shape: tuple[int, int], polylines: Sequence[np.ndarray], radius: float
 ) -> np.ndarray:
@@ -491,18 +495,26 @@ def near_polylines(
     on = np.zeros(shape, bool)
     if not lines:
         return on
-    # every polyline's segments sampled at once: the segments within one polyline only
+    # every polyline's segments sampled in a few calls (the segments within one polyline only),
+    # NEAR_BLOCK segments at a time: the samples' temporaries stay small
     q = np.concatenate(lines)
     last = np.cumsum([len(v) for v in lines]) - 1
     inner = np.ones(len(q) - 1, bool)
     inner[last[:-1]] = False
+    start = q[:-1][inner]
     seg = np.diff(q, axis=0)[inner]
-    k = np.maximum(1, np.ceil(np.hypot(*seg.T) / 0.25).astype(np.int64))
-    t = np.arange(int(k.sum())) - np.repeat(np.cumsum(k) - k, k)
-    samples = q[:-1][inner].repeat(k, 0) + seg.repeat(k, 0) * (t / k.repeat(k))[:, None]
-    p = np.floor(np.concatenate([samples, q[last]])).astype(np.int64)
-    p = p[(p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)]
-    on[p[:, 1], p[:, 0]] = True
+
+    def mark(p: np.ndarray) -> None:
+        p = np.floor(p).astype(np.int64)
+        p = p[(p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)]
+        on[p[:, 1], p[:, 0]] = True
+
+    for b in range(0, len(seg), NEAR_BLOCK):
+        a, d = start[b : b + NEAR_BLOCK], seg[b : b + NEAR_BLOCK]
+        k = np.maximum(1, np.ceil(np.hypot(*d.T) / 0.25).astype(np.int64))
+        t = np.arange(int(k.sum())) - np.repeat(np.cumsum(k) - k, k)
+        mark(a.repeat(k, 0) + d.repeat(k, 0) * (t / k.repeat(k))[:, None])
+    mark(q[last])
     if not on.any():
         return on
     return _dilate_disk(on, radius)
