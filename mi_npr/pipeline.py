@@ -16,7 +16,9 @@ the same raw beauty, so the drawings never stack on each other:
   ``raytree``), the images of ``<stem>_contours.png`` and ``<stem>_raytree.png``;
 - :attr:`LayeredRender.strokes` holds the vector form of the line drawings for the SVG files:
   the ray-tree edge classes traced from their masks, and the ``lines`` drawing as object-space
-  strokes (:func:`lines_as_strokes`).
+  strokes (:func:`lines_as_strokes`), extracted from the pixel-centre G-buffer before the
+  drawings, while the meshes' topology built beside the beauty is fresh (or the ``strokes``
+  drawing's, when they are the same).
 
 The shorthands :func:`render_contours`, :func:`render_vector_contours` and
 :func:`render_raytree` are one drawing each (``mi-npr contours``, ``mi-npr raytree`` from
@@ -181,11 +183,20 @@ def render_layers(
     if session.source is not None:
         gb = gb.with_metadata(**{"mi_npr/scene": session.source})
     out = LayeredRender(gb, drawings=tuple(on))
-    # A scene loaded here is drawn once: its last stroke extraction drops the meshes' topology
-    # (the strokes drawing's, unless the lines' SVG extracts again after it)
+    # A scene loaded here is drawn once: its last stroke extraction drops the meshes' topology.
+    # The lines' SVG extracts its own strokes (unless it takes the strokes drawing's) first,
+    # from the pixel-centre G-buffer, while the topology built beside the beauty is fresh: it
+    # is then dropped before the anti-aliased lines (or kept for the strokes drawing).
     once = session.source is not None
-    lines_extract = "lines" in on and vector and not _lines_reuse_strokes(on)
-    session.keep_topology = not once or lines_extract
+    line_strokes_ = None
+    if "lines" in on and vector and not _lines_reuse_strokes(on):
+        with session.step("lines as strokes"):
+            # what Dr.Jit keeps for reuse from the render (the beauty's samples, the film) is
+            # freed first: the strokes' visibility rays take its place, not memory beside it
+            dr.flush_malloc_cache()
+            session.keep_topology = not once or "strokes" in on
+            line_strokes_ = line_strokes(session, gb, on["lines"])
+    session.keep_topology = not once
     new: dict[str, Any] = {}
     meta: dict[str, str] = {}
     for name, p in on.items():
@@ -212,13 +223,8 @@ def render_layers(
         out.strokes = stroke_layers(out.gbuffer, lines="lines" not in on)
         if "lines" in on:
             with session.step("lines as strokes"):
-                # what Dr.Jit keeps for reuse from the render and the drawings (the beauty's
-                # samples, the film, the drawings' temporaries) is freed first: the strokes'
-                # mesh topology and visibility rays take its place, not memory beside it
-                dr.flush_malloc_cache()
-                session.keep_topology = not once
                 out.strokes[LINES_SVG] = lines_as_strokes(
-                    session, out.gbuffer, on["lines"], out.vector_strokes
+                    session, out.gbuffer, on["lines"], out.vector_strokes, line_strokes_
                 )
     return out
 
@@ -227,12 +233,13 @@ def _topology_ahead(
     session: SceneSession, on: Mapping[str, Any], vector: bool
 ) -> Callable[[dict[str, Any]], None] | None:
     """What starts the meshes' topology (:func:`mi_npr.strokes.edges.prefetch_topology`)
-    while the beauty renders, for the drawings of ``on`` that extract strokes: for the
-    ``strokes`` drawing the whole of it (every pair of meshes searched for intersection
-    lines); for the ``lines`` drawing's SVG (:func:`lines_as_strokes`: the pairs whose pixels
-    touch in the pixel-centre ids) its first stage alone, the intersection search and the
-    weld (the rest would stay alive through the anti-aliased lines, which come first);
-    ``None`` when none does, or the camera is one the strokes refuse. The beauty keeps both
+    while the beauty renders, for the drawings of ``on`` that extract strokes: the ``strokes``
+    drawing (every pair of meshes searched for intersection lines) and the ``lines`` drawing's
+    SVG (:func:`line_strokes`: the pairs whose pixels touch in the pixel-centre ids); ``None``
+    when none does, or the camera is one the strokes refuse. The whole build, except where
+    the lines' SVG takes the strokes drawing's strokes: the anti-aliased lines may then be
+    drawn before the strokes, and the first stage alone (the intersection search and the
+    weld) is built ahead, so that the rest is not alive through them. The beauty keeps both
     cores busy, so this work is not free, but it takes half the time there that it takes
     alone on one core after the beauty."""
     if "strokes" not in on and not ("lines" in on and vector):
@@ -242,11 +249,13 @@ def _topology_ahead(
     except ParameterError:
         return None
 
+    whole = not ("lines" in on and vector and _lines_reuse_strokes(on))
+
     def start(layers: dict[str, Any]) -> None:
         ids = None if "strokes" in on else np.asarray(layers[L.OBJECT_ID])
         dr.flush_malloc_cache()  # the pixel-centre pass's temporaries: the search takes their place
         pairs = None if ids is None else touching_pairs(ids)
-        prefetch_topology(session.objects, pairs, whole="lines" not in on)
+        prefetch_topology(session.objects, pairs, whole=whole)
 
     return start
 
@@ -287,11 +296,35 @@ def line_kinds(params: Mapping[str, Any]) -> tuple[str, ...]:
     return tuple(kinds)
 
 
+def line_strokes(session: SceneSession, gb: GBuffer, params: Mapping[str, Any]) -> Strokes:
+    """The strokes :func:`lines_as_strokes` extracts for the ``lines`` drawing (``params``) of
+    the pixel-centre G-buffer ``gb``: visible ones alone, with no ``depth_behind``, the
+    intersection lines of the meshes whose pixels touch (its docstring); none for a camera the
+    strokes refuse."""
+    z = gb.numpy(L.Z) if L.Z in gb else None
+    try:
+        return extract_strokes(
+            session.scene,
+            session.sensor,
+            session.objects,
+            crease_angle=float(params["crease_angle"]),
+            max_qi=0,  # the visible strokes alone: no ray past the first surface
+            depth_range=depth_range_of(z) if z is not None else None,
+            depth_behind=False,  # the layer's style has no gray: never read
+            keep_topology=session.keep_topology,
+            # the intersection lines of the meshes whose pixels touch: the visible ones
+            intersect=touching_pairs(gb.numpy(L.OBJECT_ID)) if L.OBJECT_ID in gb else None,
+        )
+    except ParameterError:  # a camera the strokes refuse: every line pixel is traced
+        return Strokes([], gb.width, gb.height, dict(session.objects.names))
+
+
 def lines_as_strokes(
     session: SceneSession,
     gb: GBuffer,
     params: Mapping[str, Any],
     drawn: StrokeDrawing | None = None,
+    extracted: Strokes | None = None,
 ) -> StrokeLayer:
     """The ``lines`` drawing of ``gb`` (its ``lines.V`` layer, drawn with ``params``, all of the
     drawing's, checked) as object-space strokes: the layer of ``<stem>_lines.svg``.
@@ -301,10 +334,10 @@ def lines_as_strokes(
     :func:`line_kinds`, of the objects that ``only`` and ``ignore`` select (a stroke's object:
     that of its first vertex). The strokes of ``drawn`` (the ``strokes`` drawing of the same
     render) are reused when they were extracted at the same crease angle, or creases are off;
-    extracted here, they carry no ``depth_behind`` (the layer's style never reads it), and the
-    intersection lines are looked for only between meshes whose pixels touch in the G-buffer's
-    object ids (:func:`~mi_npr.strokes.intersect.touching_pairs`; a visible line runs between
-    them).
+    extracted here (or given as ``extracted``, :func:`line_strokes`), they carry no
+    ``depth_behind`` (the layer's style never reads it), and the intersection lines are looked
+    for only between meshes whose pixels touch in the G-buffer's object ids
+    (:func:`~mi_npr.strokes.intersect.touching_pairs`; a visible line runs between them).
     **How**: ``line_width`` px wide, in ``line_color``, opaque: the ID edges and creases of the
     lines are drawn at full strength, and an outline always has a depth step or an ID change, so
     an opaque stroke is what the PNG shows, except where eq. 5.1 fades a depth step too small for
@@ -315,26 +348,12 @@ def lines_as_strokes(
     steeply, ID edges of an ``id_mode`` finer than a shape, and, for a camera the strokes refuse
     (a sensor that is not a perspective, thin-lens or orthographic camera), every line pixel."""
     crease = float(params["crease_angle"])
-    strokes = None
-    if drawn is not None and _reuses(crease, drawn.strokes.params.get("crease_angle")):
-        strokes = drawn.strokes
+    strokes = extracted
+    if strokes is None and drawn is not None:
+        if _reuses(crease, drawn.strokes.params.get("crease_angle")):
+            strokes = drawn.strokes
     if strokes is None:
-        z = gb.numpy(L.Z) if L.Z in gb else None
-        try:
-            strokes = extract_strokes(
-                session.scene,
-                session.sensor,
-                session.objects,
-                crease_angle=crease,
-                max_qi=0,  # the visible strokes alone: no ray past the first surface
-                depth_range=depth_range_of(z) if z is not None else None,
-                depth_behind=False,  # the layer's style has no gray: never read
-                keep_topology=session.keep_topology,
-                # the intersection lines of the meshes whose pixels touch: the visible ones
-                intersect=touching_pairs(gb.numpy(L.OBJECT_ID)) if L.OBJECT_ID in gb else None,
-            )
-        except ParameterError:  # a camera the strokes refuse: every line pixel is traced
-            strokes = Strokes([], gb.width, gb.height, dict(session.objects.names))
+        strokes = line_strokes(session, gb, params)
     kinds = line_kinds(params)
     names = session.objects.names
     chosen = selected(names, split_globs(params.get("only")), split_globs(params.get("ignore")))

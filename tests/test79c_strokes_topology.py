@@ -259,8 +259,9 @@ def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
     whole build) on another thread; the next ``topology`` of the same meshes goes on from them:
     every array the same as a build from scratch (with the pairs asked for by the prefetch).
     One under way refuses another; one of other meshes is dropped; none starts when the
-    topology is kept already. A render of the strokes drawing prefetches the whole build, one
-    with the lines' SVG its first stage, and draws the same strokes as the extraction alone."""
+    topology is kept already. A render prefetches the whole build, or its first stage where the
+    lines' SVG takes the strokes drawing's strokes, and draws the same strokes as the
+    extraction alone."""
     from mi_npr.pipeline import render_layers
     from mi_npr.strokes import extract as X
 
@@ -307,12 +308,15 @@ def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
         E._LAST[0] = None
         render_layers(scene, ["strokes"], spp=1)  # the whole topology beside the beauty
         E._LAST[0] = None
+        # the lines' SVG taking the strokes drawing's strokes: the first stage alone (the
+        # rest would stay alive through the anti-aliased lines)
+        render_layers(scene, ["lines", "strokes"], spp=1)
+        E._LAST[0] = None
         r = render_layers(scene, ["lines"], {"crease_angle": 100.0}, spp=1)
     finally:
         E.prefetch_topology = original
         P.prefetch_topology = original
-    # the lines' SVG: the first stage alone (the rest would stay alive through the lines)
-    assert called == [True, False] and E._EARLY[0] is None
+    assert called == [True, False, True] and E._EARLY[0] is None
     E._LAST[0] = None
     ids = r.gbuffer.numpy("object_id.V")
     from mi_npr.strokes.intersect import touching_pairs
