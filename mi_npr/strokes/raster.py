@@ -18,7 +18,10 @@ over each other in order with ``A <- A (1 - a) + a`` and premultiplied colour
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
+import drjit as dr
+import mitsuba as mi
 import numpy as np
 
 from .model import Stroke, Strokes
@@ -138,24 +141,11 @@ def _capsules(
     bounds = np.searchsorted(np.cumsum(count), np.arange(0, count.sum(), CHUNK), "right")
     for c0, c1 in itertools.pairwise([*np.unique(bounds).tolist(), len(count)]):
         sl = slice(c0, c1)
-        n = count[sl]
-        s = np.repeat(np.arange(c0, c1), n)
-        k = np.arange(len(s)) - np.repeat(np.cumsum(n) - n, n)
-        xs, ys = x0[s] + k % nx[s], y0[s] + k // nx[s]
-        cx, cy = xs + 0.5, ys + 0.5
-        ab = b[s] - a[s]
-        ll = ab[:, 0] * ab[:, 0] + ab[:, 1] * ab[:, 1]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            t = ((cx - a[s, 0]) * ab[:, 0] + (cy - a[s, 1]) * ab[:, 1]) / ll
-        t = np.clip(np.where(ll == 0, 0.0, t), 0.0, 1.0)
-        d = np.hypot(cx - (a[s, 0] + t * ab[:, 0]), cy - (a[s, 1] + t * ab[:, 1]))
-        rr = ra[s] + t * (rb[s] - ra[s])
-        oo = oa[s] + t * (ob[s] - oa[s])
-        c = np.clip(rr + 0.5 - d, 0.0, np.minimum(1.0, 2.0 * rr)) * oo
-        hit = c > 0
-        idx.append((ys * width + xs)[hit])
-        cov.append(c[hit])
-        own.append(who[s][hit])
+        seg = (x0[sl], y0[sl], nx[sl], a[sl], b[sl], ra[sl], rb[sl], oa[sl], ob[sl])
+        s, pixel, c = _pixel_tests(count[sl], seg, width)
+        idx.append(pixel)
+        cov.append(c)
+        own.append(who[c0 + s])
     if not idx:
         z = np.zeros(0, np.int64)
         return z, z, np.zeros(0)
@@ -173,8 +163,54 @@ def _capsules(
     return key // (width * height), key % (width * height), cov
 
 
-#: Pixel tests per batch of :func:`_capsules` (memory bound: some 20 float64 temporaries each).
-CHUNK = 1 << 18
+def _pixel_tests(
+    count: np.ndarray, seg: tuple[np.ndarray, ...], width: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pixel tests of :func:`_capsules` for segments ``seg`` (their boxes' corners ``x0``,
+    ``y0`` and widths ``nx``, ends ``a``, ``b``, radii and opacities at the ends; ``count``
+    pixels each, row by row over the box), in one Dr.Jit kernel (double precision): each
+    covered pixel's segment (an index into ``seg``), flat index and coverage."""
+    x0, y0, nx, a, b, ra, rb, oa, ob = seg
+    n = int(count.sum())
+    if n == 0:
+        return np.zeros(0, np.uint32), np.zeros(0, np.uint32), np.zeros(0)
+    start = np.cumsum(count) - count
+    # each test's segment: the last one starting at or before it (the segments' starts
+    # marked, summed along the tests; a segment of no test starts where the next one does)
+    mark = dr.zeros(mi.UInt32, n)
+    marked = mi.UInt32(start[start < n].astype(np.uint32))
+    dr.scatter_reduce(dr.ReduceOp.Add, mark, 1, marked)
+    s = dr.cumsum(mark) - 1
+    j = dr.arange(mi.UInt32, n)
+
+    def at(values: np.ndarray, kind: type = mi.Float64) -> Any:
+        return dr.gather(kind, kind(np.ascontiguousarray(values)), s)
+
+    k = mi.Int32(j - at(start.astype(np.uint32), mi.UInt32))
+    w = dr.maximum(at(nx.astype(np.int32), mi.Int32), 1)  # a kernel's idle lanes read 0
+    xs, ys = at(x0.astype(np.int32), mi.Int32) + k % w, at(y0.astype(np.int32), mi.Int32) + k // w
+    cx, cy = mi.Float64(xs) + 0.5, mi.Float64(ys) + 0.5
+    ax, ay, bx, by = at(a[:, 0]), at(a[:, 1]), at(b[:, 0]), at(b[:, 1])
+    abx, aby = bx - ax, by - ay
+    ll = abx * abx + aby * aby
+    t = dr.select(ll == 0, 0.0, ((cx - ax) * abx + (cy - ay) * aby) / ll)
+    t = dr.clip(t, 0.0, 1.0)
+    dx, dy = cx - (ax + t * abx), cy - (ay + t * aby)
+    d = dr.sqrt(dx * dx + dy * dy)
+    r0, o0 = at(ra), at(oa)
+    rr = r0 + t * (at(rb) - r0)
+    oo = o0 + t * (at(ob) - o0)
+    c = dr.clip(rr + 0.5 - d, 0.0, dr.minimum(1.0, 2.0 * rr)) * oo
+    hit = dr.compress(c > 0)
+    pixel = dr.gather(mi.UInt32, mi.UInt32(ys * width + xs), hit)
+    out = (dr.gather(mi.UInt32, s, hit), pixel, dr.gather(mi.Float64, c, hit))
+    dr.eval(*out)
+    return tuple(np.asarray(x.numpy()) for x in out)  # type: ignore[return-value]
+
+
+#: Pixel tests per batch of :func:`_capsules` (one kernel; memory: 4 bytes each, and 16 per
+#: covered pixel).
+CHUNK = 1 << 21
 #: Strokes rasterised at once by :func:`rasterize` (memory bound: their covered pixels).
 BLOCK = 1 << 10
 
