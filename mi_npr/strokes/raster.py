@@ -210,7 +210,7 @@ def _pixel_tests(
 
 #: Pixel tests per batch of :func:`_capsules` (one kernel; memory: 4 bytes each, and 16 per
 #: covered pixel).
-CHUNK = 1 << 21
+CHUNK = 1 << 19
 #: Strokes rasterised at once by :func:`rasterize` (memory bound: their covered pixels).
 BLOCK = 1 << 10
 
@@ -299,6 +299,9 @@ def rasterize(strokes: Strokes, style: Style) -> tuple[np.ndarray, np.ndarray]:
             i, c = idx[sel], a[sel].astype(np.float32)
             alpha[i] = alpha[i] * (1.0 - c) + c
             ink[i] = ink[i] * (1.0 - c)[:, None] + col[stroke[sel]] * c[:, None]
+    # the pixel tests' buffers, which Dr.Jit would keep for reuse, handed back: the next
+    # drawing's rays and raster ask for other sizes
+    dr.flush_malloc_cache()
     return alpha.reshape(h, w), ink.reshape(h, w, 3)
 
 
