@@ -13,7 +13,6 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 from PIL import Image, ImageDraw, UnidentifiedImageError
-from scipy.ndimage import distance_transform_edt
 
 from ..errors import InputError, ParameterError, as_path, check_input_file, shown
 
@@ -161,6 +160,8 @@ def chamfer(rendered: Any, target: Any) -> mi.Float:
     lines = t > 0.5
     if not lines.any():
         raise ParameterError("chamfer: the drawing has no line (no pixel of ink above 0.5)")
+    from scipy.ndimage import distance_transform_edt  # lazy: scipy's import is slow
+
     dist = distance_transform_edt(~lines).astype(np.float32)
     d = mi.Float(np.ascontiguousarray(dist).reshape(-1))
     return dr.sum(r * d) / dr.maximum(dr.sum(r), 1e-8)

@@ -50,7 +50,6 @@ from typing import Any
 
 import mitsuba as mi
 import numpy as np
-from scipy.ndimage import distance_transform_edt
 
 from .. import layers as L
 from ..errors import ParameterError
@@ -534,6 +533,8 @@ def _dilate_disk(on: np.ndarray, radius: float) -> np.ndarray:
     if not radius >= 0:
         return np.zeros(on.shape, bool)  # no distance passes (a NaN radius neither)
     if radius >= _DISK_RADIUS:
+        from scipy.ndimage import distance_transform_edt  # lazy: scipy's import is slow
+
         return distance_transform_edt(~on) <= radius
     h, w = on.shape
     d = np.arange(int(radius) + 1, dtype=np.float64)

@@ -97,7 +97,6 @@ from collections.abc import Callable
 import drjit as dr
 import mitsuba as mi
 import numpy as np
-from scipy.ndimage import maximum_filter
 
 from ..contours.vector import VectorPath, douglas_peucker, vectorize
 from ..gbuffer import Projection
@@ -584,6 +583,8 @@ def depth_step_paths(
     swap = (z[b[:, 1], b[:, 0]] < z[a[:, 1], a[:, 0]])[:, None]
     a, b = np.where(swap, b, a), np.where(swap, a, b)
     corners_ab, _ = _crack_corners(a, b)
+    from scipy.ndimage import maximum_filter  # lazy: keeps scipy's import out of start-up
+
     for _ in range(GROW_ROUNDS):
         ends = _ends(near, far)
         if not len(ends):
