@@ -235,3 +235,16 @@ def test07_imports_inside_functions_say_why():
         if (lines := _unexplained_inner_imports(f))
     }
     assert not bad
+
+
+def test08_the_command_starts_without_scipy():
+    """``import mi_npr.cli`` (every command's start) loads no SciPy: its import costs ~0.15 s,
+    and only some drawings need it, where they use it."""
+    import subprocess
+    import sys
+
+    code = "import sys, mi_npr.cli; print(sorted(m for m in sys.modules if m.startswith('scipy')))"
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
+    )
+    assert out.stdout.strip() == "[]", out.stdout[:500]
