@@ -188,14 +188,14 @@ def render_layers(
     # from the pixel-centre G-buffer, while the topology built beside the beauty is fresh: it
     # is then dropped before the anti-aliased lines (or kept for the strokes drawing).
     once = session.source is not None
-    line_strokes_ = None
+    svg_strokes = None
     if "lines" in on and vector and not _lines_reuse_strokes(on):
         with session.step("lines as strokes"):
             # what Dr.Jit keeps for reuse from the render (the beauty's samples, the film) is
             # freed first: the strokes' visibility rays take its place, not memory beside it
             dr.flush_malloc_cache()
             session.keep_topology = not once or "strokes" in on
-            line_strokes_ = line_strokes(session, gb, on["lines"])
+            svg_strokes = line_strokes(session, gb, on["lines"])
     session.keep_topology = not once
     new: dict[str, Any] = {}
     meta: dict[str, str] = {}
@@ -224,7 +224,7 @@ def render_layers(
         if "lines" in on:
             with session.step("lines as strokes"):
                 out.strokes[LINES_SVG] = lines_as_strokes(
-                    session, out.gbuffer, on["lines"], out.vector_strokes, line_strokes_
+                    session, out.gbuffer, on["lines"], out.vector_strokes, svg_strokes
                 )
     return out
 
