@@ -621,13 +621,10 @@ def prefetch_topology(
     holder: dict = {}
 
     def run() -> None:
-        v, f, face_oid = soup
-        soup.clear()
+        # the arrays handed over, not kept here: the build drops each one when it is done
+        build = Topology.from_soup if whole else _early_stage
         try:
-            if whole:
-                holder["early"] = Topology.from_soup(v, f, face_oid, pairs)
-            else:
-                holder["early"] = _early_stage(v, f, face_oid, pairs)
+            holder["early"] = build(soup.pop(0), soup.pop(0), soup.pop(0), pairs)
         except BaseException:  # the build starts over on the caller's thread
             pass
 
