@@ -425,24 +425,23 @@ _THREADS: list[int | None] = [None]
 _ON_WORKER: list[bool | None] = [None]
 
 
-def _on_dask_worker() -> bool:
-    """Whether this code runs in a Dask worker."""
-    try:  # imported here: see _worker_name
-        from distributed import get_worker
-
-        get_worker()
-        return True
-    except (ImportError, ValueError):
-        return False
-
-
-def _worker_name() -> str:
+def _dask_worker_address() -> str | None:
+    """The address of the Dask worker this code runs in (``None``: none)."""
     try:  # imported here, like all of Dask: slow to import, and needed only by a batch on Dask
         from distributed import get_worker
 
         return str(get_worker().address)
     except (ImportError, ValueError):
-        return f"local:{socket.gethostname()}:{os.getpid()}"
+        return None
+
+
+def _on_dask_worker() -> bool:
+    """Whether this code runs in a Dask worker."""
+    return _dask_worker_address() is not None
+
+
+def _worker_name() -> str:
+    return _dask_worker_address() or f"local:{socket.gethostname()}:{os.getpid()}"
 
 
 def _configure(settings: BatchSettings) -> None:
@@ -516,7 +515,7 @@ def _progress(settings: BatchSettings, samples: int | None = None) -> None:
     """Tell the client (on Dask) that this worker's job made progress, and how long its next
     step may take: ``job_timeout``, else :data:`JOB_TIMEOUT` plus ``samples`` /
     :data:`SAMPLES_PER_SECOND` (the render of ``samples`` samples)."""
-    try:  # imported here: see _worker_name
+    try:  # imported here: see _dask_worker_address
         from distributed import get_worker
 
         worker = get_worker()
@@ -1091,7 +1090,7 @@ def local_cluster(workers: int, **kwargs: Any) -> Any:
     one job at a time; Dr.Jit's own threads do the parallel work). Its scheduler sends every
     task to the workers at once (``worker-saturation`` inf): a worker never waits for its next
     job, and work stealing still balances them. Close it (or use it in ``with``)."""
-    import dask  # imported here: see _worker_name
+    import dask  # imported here: see _dask_worker_address
     from distributed import LocalCluster
 
     options = dict(threads_per_worker=1, processes=True, dashboard_address=DASHBOARD)
@@ -1133,7 +1132,7 @@ def _connect(scheduler: str) -> Any:
     listening, a silent port, or a peer that is no Dask scheduler (an HTTP server)."""
     import asyncio  # imported here, with Dask: only a batch on a running scheduler needs it
 
-    import dask  # imported here: see _worker_name
+    import dask  # imported here: see _dask_worker_address
     from dask.utils import parse_timedelta
     from distributed import Client
     from distributed.comm import connect
@@ -1195,7 +1194,7 @@ def _run_dask(
     """The batch on Dask: one task per job, submitted scene by scene; a failed task (or one
     whose worker died, or one stopped past its bound without progress) is submitted again
     while it has retries left."""
-    from distributed import Client, as_completed  # imported here: see _worker_name
+    from distributed import Client, as_completed  # imported here: see _dask_worker_address
 
     own_cluster = own_client = None
     try:
