@@ -69,10 +69,9 @@ def _bounded(o: mi.Point3f, d: mi.Vector3f, maxt: mi.Float) -> mi.Ray3f:
     return ray
 
 
-def _surface(si: mi.SurfaceInteraction3f, hit: mi.Bool) -> tuple[mi.Bool, mi.Bool]:
-    """``(glass, invisible)`` of each hit: a delta transmission (seen through) or a ``null``
-    BSDF (not seen at all)."""
-    flags = si.bsdf().flags()
+def _surface(flags: mi.UInt32, hit: mi.Bool) -> tuple[mi.Bool, mi.Bool]:
+    """``(glass, invisible)`` of each hit, from its BSDF's ``flags``: a delta transmission
+    (seen through) or a ``null`` BSDF (not seen at all)."""
     glass = hit & mi.has_flag(flags, mi.BSDFFlags.DeltaTransmission)
     invisible = hit & (flags == mi.UInt32(int(mi.BSDFFlags.Null)))
     return glass, invisible
@@ -298,8 +297,7 @@ def _qi(
     def counted(hit: mi.Bool, oid: mi.UInt32, prim: mi.UInt32, flags: mi.UInt32, skip: mi.Bool):
         mine = ((oid == own_o0) & (prim == own_p0)) | ((oid == own_o1) & (prim == own_p1))
         mine |= skip
-        is_glass = hit & mi.has_flag(flags, mi.BSDFFlags.DeltaTransmission)
-        invisible = hit & (flags == mi.UInt32(int(mi.BSDFFlags.Null)))
+        is_glass, invisible = _surface(flags, hit)
         return dr.select(hit & ~is_glass & ~invisible & ~mine, 1, 0), is_glass & ~mine
 
     if meshes_only(table):
@@ -382,7 +380,7 @@ def first_opaque_hit(
     si = scene.ray_intersect(ray, ray_flags=flags, coherent=False)
     glass = dr.zeros(mi.Bool, dr.width(si.t))
     hit = si.is_valid()
-    is_glass, invisible = _surface(si, hit)
+    is_glass, invisible = _surface(si.bsdf().flags(), hit)
     passing = invisible if stop_at_glass else is_glass | invisible
     # one kernel: testing ``passing`` alone would trace the rays again for ``si`` afterwards
     dr.eval(si, hit, passing)
@@ -395,7 +393,7 @@ def first_opaque_hit(
         )
         si = dr.select(passing, again, si)
         hit = dr.select(passing, again.is_valid(), hit)
-        is_glass, invisible = _surface(si, hit & passing)
+        is_glass, invisible = _surface(si.bsdf().flags(), hit & passing)
         passing = passing & hit & (invisible if stop_at_glass else is_glass | invisible)
         dr.eval(si, hit, glass, passing)
     si.t = dr.select(hit, dr.dot(si.p - o, d), dr.inf)
