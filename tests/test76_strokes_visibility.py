@@ -367,15 +367,15 @@ def test10_sub_pixel_zig_zag_is_one_stroke_a_corner_ends_it():
 
 
 def test11_edges_and_rays_taken_in_small_batches_give_the_same_strokes(tmp_path, monkeypatch):
-    """The extraction clips its edges :data:`CLIP_BLOCK` at a time, casts their samples in
-    launches of :data:`SAMPLES` samples or :data:`EDGE_CHUNK` edges and its rays :data:`RAYS`
-    a launch (memory bounds): batches of a few edges, samples and rays change nothing."""
+    """The extraction clips its edges :data:`EDGE_CHUNK` at a time, casts their samples in
+    launches of whole edges of at most :data:`SAMPLES` samples (one edge alone when it has
+    more) and its bisections' rays :data:`RAYS` a launch (memory bounds): batches of a few
+    edges, samples and rays change nothing."""
     from mi_npr.strokes import extract, visibility
 
     scene = load(tmp_path, WALL + BOX + BALL)
     key = lambda s: (s.kind, s.qi, s.through_glass, np.round(s.points, 6).tobytes())  # noqa: E731
     whole = sorted(map(key, extract_strokes(scene, scene.sensors()[0], max_qi=2)))
-    monkeypatch.setattr(extract, "CLIP_BLOCK", 3)
     monkeypatch.setattr(extract, "EDGE_CHUNK", 5)
     monkeypatch.setattr(extract, "SAMPLES", 40)
     monkeypatch.setattr(visibility, "RAYS", 7)
@@ -479,3 +479,108 @@ def test13_a_scene_of_meshes_counts_as_the_brute_force_does(tmp_path, monkeypatc
         for name, (q, g) in (("preliminary", got), ("surface interactions", full)):
             bad = np.flatnonzero((q != ref[0]) | (g != ref[1]))
             assert len(bad) == 0, (name, max_qi, bad, q[bad], ref[0][bad])
+
+
+def _clip_by_loops(m, width, height, near, depth_row, a, b):
+    """The frustum clip of one segment, written as loops (Liang-Barsky on the homogeneous
+    coordinates): the interval (lo, hi) of ``a + s (b - a)`` with ``near <= depth``,
+    ``0 <= X <= W``, ``0 <= Y <= W``."""
+    ha = [sum(a[k] * m[r][k] for k in range(3)) + m[r][3] for r in range(4)]
+    hb = [sum(b[k] * m[r][k] for k in range(3)) + m[r][3] for r in range(4)]
+    lo, hi = 0.0, 1.0
+    bounds = [
+        (ha[depth_row] - near, hb[depth_row] - near),
+        (ha[0], hb[0]),
+        (ha[3] - ha[0], hb[3] - hb[0]),
+        (ha[1], hb[1]),
+        (ha[3] - ha[1], hb[3] - hb[1]),
+    ]
+    for f0, f1 in bounds:
+        d = f1 - f0
+        if d > 0:
+            lo = max(lo, -f0 / d)
+        elif d < 0:
+            hi = min(hi, -f0 / d)
+        elif f0 < 0:
+            return None
+    return (lo, hi) if hi - lo > 1e-12 else None
+
+
+def test14_the_frustum_clip_against_loops(tmp_path):
+    """The extraction's clip (Dr.Jit, in double precision) against the same clip written as
+    loops in the test, on random segments around a perspective and an orthographic camera:
+    in front, behind, across the near plane and the frame's sides, along a bound, of zero
+    length; the same edges kept, in order, their clipped ends within 1e-9, the ends the
+    frustum did not cut marked whole, and the samples every half pixel (at least two)."""
+    from mi_npr.strokes.edges import FeatureEdges, Projector
+    from mi_npr.strokes.extract import SPACING, _clip
+
+    rng = np.random.default_rng(5)
+    ortho = (
+        '<sensor type="orthographic"><transform name="to_world"><lookat origin="0, 0, -3" '
+        'target="0, 0, 5" up="0, 1, 0"/><scale value="2"/></transform>'
+        '<film type="hdrfilm"><integer name="width" value="61"/><integer name="height" '
+        'value="37"/></film></sensor>'
+    )
+    for body in ("", ortho):
+        scene = load(tmp_path, '<shape type="sphere"/>' + body)
+        proj = Projector(scene.sensors()[len(scene.sensors()) - 1])
+        assert proj.ortho == bool(body)
+        n = 400
+        a = rng.normal(0, 4, (n, 3)) + np.array([0.0, 0.0, 4.0])
+        b = a + rng.normal(0, 3, (n, 3))
+        b[:20] = a[:20]  # no length
+        b[20:40, 2] = a[20:40, 2]  # along a depth bound
+        a[40:60, 2] = proj.origin[2] + rng.uniform(-2, 0.005, 20)  # about the near plane
+        z = np.zeros(n, np.int64)
+        faces = np.zeros((n, 2, 2), np.int64)
+        edges = FeatureEdges(a, b, z, z, z, z.astype(np.uint32), z.astype(np.uint32), faces)
+        _, rows = _clip(proj, edges)
+        want = []
+        for i in range(n):
+            got = _clip_by_loops(
+                proj.matrix, proj.width, proj.height, proj.near, proj.depth_row, a[i], b[i]
+            )
+            if got is not None:
+                want.append((i, *got))
+        assert 20 < len(want) < n
+        assert len(rows["A"]) == len(want)
+        lo = np.array([w[1] for w in want])
+        hi = np.array([w[2] for w in want])
+        i = np.array([w[0] for w in want])
+        np.testing.assert_allclose(rows["A"], a[i] + lo[:, None] * (b[i] - a[i]), atol=1e-9)
+        np.testing.assert_allclose(rows["B"], a[i] + hi[:, None] * (b[i] - a[i]), atol=1e-9)
+        assert rows["whole_a"].tolist() == (lo == 0).tolist()
+        assert rows["whole_b"].tolist() == (hi == 1).tolist()
+        xa, _ = proj.film(rows["A"])
+        xb, _ = proj.film(rows["B"])
+        length = np.hypot(*(xb - xa).T)
+        np.testing.assert_allclose(rows["length"], length, rtol=1e-9, atol=1e-9)
+        count = np.maximum(2, np.ceil(length / SPACING).astype(np.int64) + 1)
+        assert np.abs(rows["count"] - count).max() <= 1  # (a length on a multiple of SPACING)
+        assert (rows["count"] == count).mean() > 0.99
+
+
+def test15_launches_of_whole_edges():
+    """The samples' launches: runs of whole edges of at most ``SAMPLES`` samples, an edge
+    with more alone, every edge once, in order."""
+    from mi_npr.strokes import extract
+
+    rng = np.random.default_rng(2)
+    for count in (np.array([3]), np.array([50, 2, 2]), rng.integers(2, 30, 200)):
+        runs = extract._launch_bounds(count) if len(count) else []
+        assert [e for e0, e1 in runs for e in range(e0, e1)] == list(range(len(count)))
+        for e0, e1 in runs:
+            assert count[e0:e1].sum() <= extract.SAMPLES or e1 - e0 == 1
+    assert extract._launch_bounds(np.zeros(0, np.int64)) == []
+    old = extract.SAMPLES
+    try:
+        extract.SAMPLES = 10
+        assert extract._launch_bounds(np.array([4, 4, 4, 20, 1, 1])) == [
+            (0, 2),
+            (2, 3),
+            (3, 4),
+            (4, 6),
+        ]
+    finally:
+        extract.SAMPLES = old

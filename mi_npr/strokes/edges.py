@@ -49,6 +49,7 @@ import dataclasses
 import math
 import threading
 from dataclasses import dataclass, field
+from typing import Any
 
 import drjit as dr
 import mitsuba as mi
@@ -865,6 +866,13 @@ def _orthographic(cam: Projection) -> np.ndarray:
     )
 
 
+def homogeneous(m: Any, x: Any, y: Any, z: Any) -> list:
+    """The rows of the 4x4 matrix ``m`` applied to the points ``(x, y, z, 1)``: ``x m[r][0] + y
+    m[r][1] + z m[r][2] + m[r][3]`` for each row ``r``, summed in that order, of numpy or Dr.Jit
+    arrays alike (so that both give the same bits)."""
+    return [x * m[r][0] + y * m[r][1] + z * m[r][2] + m[r][3] for r in range(4)]
+
+
 class Projector:
     """World -> film for a perspective (or thin-lens: through its lens centre) or an
     orthographic sensor: ``clip(P)`` homogeneous coordinates, where the film position is
@@ -888,19 +896,15 @@ class Projector:
         self.matrix = _orthographic(cam) if self.ortho else ndc
         self.origin = cam.origin
         self.forward = cam.forward
-        self._depth = 2 if self.ortho else 3
+        #: The row of :meth:`clip`'s coordinates that holds the depth.
+        self.depth_row = 2 if self.ortho else 3
 
     def clip(self, p: np.ndarray) -> np.ndarray:
         """Homogeneous coordinates (..., 4) of world points ``p`` (..., 3): ``X, Y`` scaled so
         that ``X / W`` is the film's ``x / width``, and ``W`` the depth."""
         p = np.asarray(p, np.float64)
-        m = self.matrix
-        out = np.empty((*p.shape[:-1], 4))
         # one row at a time: numpy's matmul of (N, 3) by (3, 3) was several times slower
-        x, y, z = p[..., 0], p[..., 1], p[..., 2]
-        for r in range(4):
-            out[..., r] = x * m[r, 0] + y * m[r, 1] + z * m[r, 2] + m[r, 3]
-        return out
+        return np.stack(homogeneous(self.matrix, p[..., 0], p[..., 1], p[..., 2]), -1)
 
     def film(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Film positions (..., 2) and depths (...) of world points ``p`` (..., 3)."""
@@ -911,35 +915,4 @@ class Projector:
         w = h[..., 3]
         with np.errstate(divide="ignore", invalid="ignore"):
             xy = np.stack([h[..., 0] / w * self.width, h[..., 1] / w * self.height], -1)
-        return xy, h[..., self._depth]
-
-    def clip_segments(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The parameter interval ``[lo, hi]`` of each segment ``a + s (b - a)`` (E, 3) inside
-        the view frustum (in front of the near plane, inside the image frame); ``lo > hi`` where
-        none of it is."""
-        return self.clip_homogeneous(self.clip(a), self.clip(b))
-
-    def clip_homogeneous(self, ha: np.ndarray, hb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`clip_segments` of segments given by their ends' homogeneous coordinates
-        ``ha``, ``hb`` (E, 4) (:meth:`clip`; the map is linear, so the point of parameter ``s``
-        is ``ha + s (hb - ha)``)."""
-        lo = np.zeros(len(ha))
-        hi = np.ones(len(ha))
-        x0, y0, w0 = ha[:, 0], ha[:, 1], ha[:, 3]
-        x1, y1, w1 = hb[:, 0], hb[:, 1], hb[:, 3]
-        z0, z1 = ha[:, self._depth], hb[:, self._depth]  # the depths: affine in s too
-        for f0, f1 in (
-            (z0 - self.near, z1 - self.near),
-            (x0, x1),
-            (w0 - x0, w1 - x1),
-            (y0, y1),
-            (w0 - y0, w1 - y1),
-        ):
-            d = f1 - f0
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = -f0 / d
-            lo = np.where(d > 0, np.maximum(lo, t), lo)
-            hi = np.where(d < 0, np.minimum(hi, t), hi)
-            out = (d == 0) & (f0 < 0)
-            lo = np.where(out, 2.0, lo)
-        return lo, hi
+        return xy, h[..., self.depth_row]

@@ -25,7 +25,7 @@ vertex (the last vertex of an open stroke: of the edge that arrives).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import drjit as dr
@@ -41,11 +41,11 @@ from ..raycast import cast, film_grid, pixel_rays
 from ..raytree.tracer import MAX_DEPTH
 from ..scene import ObjectTable, object_table
 from .chain import chain_order
-from .edges import FeatureEdges, Projector, ViewEdges, forget_topology, view_edges
+from .edges import FeatureEdges, Projector, ViewEdges, forget_topology, homogeneous, view_edges
 from .model import KINDS, Stroke, Strokes
 from .outlines import ids_and_depths, outline_strokes
 from .raytree import raytree_strokes
-from .visibility import SegmentVisibility
+from .visibility import SegmentVisibility, jit_array
 
 #: Film distance between visibility samples along an edge, in pixels.
 SPACING = 0.5
@@ -66,61 +66,13 @@ def _film_param_to_3d(u: np.ndarray, wa: np.ndarray, wb: np.ndarray) -> np.ndarr
     return u * wa / ((1.0 - u) * wb + u * wa)
 
 
-#: Feature edges clipped at once (bounds the memory of the clipping's temporaries).
-CLIP_BLOCK = 1 << 16
-#: Visibility samples cast in one launch, and the most edges they come from: whole edges
-#: are added to a launch until either is reached (bounds the memory of the samples and the
-#: edges, ~40 and ~120 bytes each, whatever the film's size; each launch traces the ray loop
-#: again, so the bisections of all the launches wait for one launch after them).
-SAMPLES = 1 << 19
+#: Feature edges clipped in one launch, and visibility samples cast in one launch: whole
+#: edges are added to a launch of samples until it holds this many (bound the memory of the
+#: edges, ~200 bytes each, and of the samples and their rays, ~50 bytes each, whatever the
+#: film's size; each launch traces the ray loop again, so the bisections of all the launches
+#: wait for one launch after them).
 EDGE_CHUNK = 1 << 17
-
-
-def _clip(proj: Projector, edges: FeatureEdges) -> dict[str, np.ndarray]:
-    """The parts of ``edges`` inside the view frustum, one row per edge that has one: the
-    clipped ends ``A``, ``B`` (world) and their homogeneous weights ``wa``, ``wb`` (the
-    depths for a perspective camera, 1 for an orthographic one), the film length and
-    the number of visibility samples ``count``, whether each end is the edge's own
-    (``whole_a``, ``whole_b``: not cut by the frustum), and the edge's own fields (``va``,
-    ``vb``, ``kind``, ``object_id``, ``prim``, ``faces``)."""
-    ha, hb = proj.clip(edges.a), proj.clip(edges.b)
-    lo, hi = proj.clip_homogeneous(ha, hb)
-    e = np.flatnonzero(hi - lo > 1e-12)
-    a, b, ha, hb = edges.a[e], edges.b[e], ha[e], hb[e]
-    lo_e, hi_e = lo[e, None], hi[e, None]
-    A = a + lo_e * (b - a)
-    B = a + hi_e * (b - a)
-    # the clipped ends' film positions from the ends' homogeneous coordinates (linear)
-    ca, cb = ha + lo_e * (hb - ha), ha + hi_e * (hb - ha)
-    (xa, _), (xb, _) = proj.film_of(ca), proj.film_of(cb)
-    wa, wb = ca[:, 3], cb[:, 3]
-    del ca, cb
-    length = np.hypot(*(xb - xa).T)
-    count = np.maximum(2, np.ceil(length / SPACING).astype(np.int64) + 1)
-    out = dict(A=A, B=B, wa=wa, wb=wb, length=length, count=count)
-    out.update(whole_a=lo[e] == 0, whole_b=hi[e] == 1)
-    for k in ("va", "vb", "kind", "object_id", "prim"):
-        out[k] = getattr(edges, k)[e]
-    out["faces"] = edges.faces[e].astype(np.uint32)  # ids and primitives: 32 bits each
-    return out
-
-
-def _launches(proj: Projector, edges: FeatureEdges | ViewEdges) -> Iterator[dict[str, np.ndarray]]:
-    """The clipped edges (:func:`_clip`'s rows) in order, in runs of whole edges of at least
-    :data:`SAMPLES` samples or :data:`EDGE_CHUNK` edges (the last run: what is left; one
-    empty run when there is nothing), clipped :data:`CLIP_BLOCK` edges at a time."""
-    pending: list[dict[str, np.ndarray]] = []
-    n_edges = n_samples = 0
-    for c in range(0, len(edges), CLIP_BLOCK):
-        part = _clip(proj, edges.take(slice(c, c + CLIP_BLOCK)))
-        pending.append(part)
-        n_edges += len(part["A"])
-        n_samples += int(part["count"].sum())
-        if n_samples >= SAMPLES or n_edges >= EDGE_CHUNK:
-            yield _joined(pending)
-            n_edges = n_samples = 0
-    if pending or not len(edges):
-        yield _joined(pending) if pending else _clip(proj, edges.take(slice(0, 0)))
+SAMPLES = 1 << 19
 
 
 def _joined(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
@@ -131,50 +83,177 @@ def _joined(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return out
 
 
-def _sample_u(j: np.ndarray, owner: np.ndarray, first: np.ndarray, count: np.ndarray) -> np.ndarray:
-    """The film parameter ``k / (count - 1)`` of samples ``j``, each the ``k``-th of the
-    ``count`` samples of its edge ``owner[j]``, whose first sample is ``first[owner[j]]``
-    (exact: integers in float64)."""
-    o = owner[j]
-    return (j.astype(np.float64) - first[o]) / (count[o] - 1)
+def _clip(proj: Projector, edges: FeatureEdges) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """The parts of ``edges`` inside the view frustum, one row per edge that has one, in
+    double precision: ``(jit, rows)``, the clipped ends ``A``, ``B`` (world; three Dr.Jit
+    arrays each) and their homogeneous weights ``wa``, ``wb`` (the depths for a perspective
+    camera, 1 for an orthographic one) and the edge's ``own`` faces (four Dr.Jit arrays, as
+    :class:`~mi_npr.strokes.visibility.SegmentVisibility` takes them); and the same rows in
+    numpy with their film ``length``, the number of visibility samples ``count``, whether
+    each end is the edge's own (``whole_a``, ``whole_b``: not cut by the frustum), and the
+    edge's own fields (``va``, ``vb``, ``kind``, ``object_id``, ``prim``, ``faces``).
+
+    The frustum cuts a segment ``a + s (b - a)`` where one of its ends' homogeneous
+    coordinates (:meth:`~mi_npr.strokes.edges.Projector.clip`, affine in ``s``) crosses a
+    bound: depth at the near plane, ``0 <= X <= W``, ``0 <= Y <= W`` (Liang-Barsky); a
+    bound parallel to a segment outside it leaves nothing of it."""
+    F64 = mi.Float64
+    n = len(edges)
+    if n == 0:  # Dr.Jit arrays of no entry do not mix with the camera's scalars
+        return _clipped_none()
+    a = [jit_array(F64, edges.a[:, k]) for k in range(3)]
+    b = [jit_array(F64, edges.b[:, k]) for k in range(3)]
+    # the camera as evaluated scalars, not literals: one kernel for every view
+    m = [[dr.opaque(F64, float(x)) for x in row] for row in proj.matrix]
+    ha, hb = homogeneous(m, *a), homogeneous(m, *b)
+    near = dr.opaque(F64, proj.near)
+    x0, y0, w0, z0 = ha[0], ha[1], ha[3], ha[proj.depth_row]
+    x1, y1, w1, z1 = hb[0], hb[1], hb[3], hb[proj.depth_row]
+    lo, hi = dr.zeros(F64, n), dr.full(F64, 1.0, n)
+    for f0, f1 in (
+        (z0 - near, z1 - near),
+        (x0, x1),
+        (w0 - x0, w1 - x1),
+        (y0, y1),
+        (w0 - y0, w1 - y1),
+    ):
+        d = f1 - f0
+        t = -f0 / d
+        lo = dr.select(d > 0, dr.maximum(lo, t), lo)
+        hi = dr.select(d < 0, dr.minimum(hi, t), hi)
+        lo = dr.select((d == 0) & (f0 < 0), 2.0, lo)
+    e = dr.compress(hi - lo > 1e-12)
+    if dr.width(e) == 0:
+        return _clipped_none()
+    lo, hi = dr.gather(F64, lo, e), dr.gather(F64, hi, e)
+    a, b = [dr.gather(F64, x, e) for x in a], [dr.gather(F64, x, e) for x in b]
+    ha, hb = [dr.gather(F64, x, e) for x in ha], [dr.gather(F64, x, e) for x in hb]
+    A = [x + lo * (y - x) for x, y in zip(a, b, strict=True)]
+    B = [x + hi * (y - x) for x, y in zip(a, b, strict=True)]
+    # the clipped ends' film positions from the ends' homogeneous coordinates (linear)
+    ca = [x + lo * (y - x) for x, y in zip(ha, hb, strict=True)]
+    cb = [x + hi * (y - x) for x, y in zip(ha, hb, strict=True)]
+    width, height = dr.opaque(F64, proj.width), dr.opaque(F64, proj.height)
+    dx = cb[0] / cb[3] * width - ca[0] / ca[3] * width
+    dy = cb[1] / cb[3] * height - ca[1] / ca[3] * height
+    length = dr.sqrt(dx * dx + dy * dy)
+    count = dr.maximum(2, mi.UInt32(dr.ceil(length / SPACING)) + 1)
+    wa, wb = ca[3], cb[3]
+    dr.eval(e, A, B, wa, wb, length, count, lo, hi)
+    idx = np.asarray(e.numpy(), np.int64)
+    rows = dict(length=length.numpy(), count=count.numpy().astype(np.int64))
+    rows.update(whole_a=lo.numpy() == 0, whole_b=hi.numpy() == 1)
+    rows.update(A=np.stack([x.numpy() for x in A], 1), B=np.stack([x.numpy() for x in B], 1))
+    rows.update(wa=wa.numpy(), wb=wb.numpy())
+    all_rows = len(idx) == n  # every edge in the frustum: the fields as they are
+    for k in ("va", "vb", "kind", "object_id", "prim", "faces"):
+        rows[k] = getattr(edges, k) if all_rows else getattr(edges, k)[idx]
+    rows["faces"] = rows["faces"].astype(np.uint32)  # ids and primitives: 32 bits each
+    own = [jit_array(mi.UInt32, rows["faces"][:, k // 2, k % 2]) for k in range(4)]
+    return dict(A=A, B=B, wa=wa, wb=wb, own=own), rows
+
+
+def _clipped_none() -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """:func:`_clip`'s result where no edge is left."""
+    edges = FeatureEdges.empty()
+    z, z3 = np.zeros(0), np.zeros((0, 3))
+    rows = dict(length=z, count=z.astype(np.int64), whole_a=z > 0, whole_b=z > 0)
+    rows.update(A=z3, B=z3, wa=z, wb=z)
+    rows.update({k: getattr(edges, k) for k in ("va", "vb", "kind", "object_id", "prim")})
+    rows["faces"] = edges.faces.astype(np.uint32)
+    e3 = [dr.zeros(mi.Float64, 0) for _ in range(3)]
+    own = [dr.zeros(mi.UInt32, 0) for _ in range(4)]
+    return dict(A=e3, B=e3, wa=e3[0], wb=e3[0], own=own), rows
+
+
+def _launch_bounds(count: np.ndarray) -> list[tuple[int, int]]:
+    """Runs ``[e0, e1)`` of whole edges whose ``count`` samples add up to at most
+    :data:`SAMPLES` (or one edge alone), in order."""
+    out, e0 = [], 0
+    ends = np.cumsum(count)
+    while e0 < len(count):
+        base = int(ends[e0 - 1]) if e0 else 0
+        e1 = max(e0 + 1, int(np.searchsorted(ends, base + SAMPLES, "right")))
+        out.append((e0, e1))
+        e0 = e1
+    return out
 
 
 def _states(
     scene: mi.Scene,
     table: ObjectTable,
     proj: Projector,
-    clipped: dict[str, np.ndarray],
+    edges: FeatureEdges,
     max_qi: int,
-) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """The samples of the ``clipped`` edges (:func:`_clip`'s rows) cast in one launch: the
-    state ``2 QI + through_glass`` of each edge's first sample, and where two neighbouring
-    samples of an edge differ, the ``changes``: the edge, the two samples' film parameters
-    ``ulo``, ``uhi`` and states ``slo``, ``shi`` (in order along each edge). The rays count to
-    ``max_qi + 1``: the parts beyond ``max_qi`` are told apart, then dropped."""
-    count = clipped["count"]
-    owner = np.repeat(np.arange(len(count), dtype=np.uint32), count)
+) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+    """The ``edges`` clipped (:func:`_clip`'s rows) and their samples cast (:data:`SAMPLES`
+    at a time): the state ``2 QI + through_glass`` of each clipped edge's first sample, and
+    where two neighbouring samples of an edge differ, the ``changes``: the edge, the two
+    samples' film parameters ``ulo``, ``uhi`` and states ``slo``, ``shi`` (in order along
+    each edge). The rays count to ``max_qi + 1``: the parts beyond ``max_qi`` are told apart,
+    then dropped. The samples' parameters, points and states are made in Dr.Jit (no array
+    per sample in numpy)."""
+    U, F64 = mi.UInt32, mi.Float64
+    jit, rows = _clip(proj, edges)
+    count = rows["count"]
     first = np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)
-    # the samples' parameters in single precision (what the rays take), a block at a time:
-    # no double-precision copy of them all
-    u = np.empty(len(owner), np.float32)
-    for b in range(0, len(u), 1 << 18):
-        u[b : b + (1 << 18)] = _sample_u(
-            np.arange(b, min(b + (1 << 18), len(u))), owner, first, count
-        )
-    rays = _rays(scene, table, proj, clipped, max_qi)
-    qi, glass = rays.at(owner, u)
-    del u, rays
-    state = qi * 2 + glass  # int32
-    del qi, glass
-    change = np.flatnonzero((owner[1:] == owner[:-1]) & (state[1:] != state[:-1]))
-    changes = dict(
-        edge=owner[change].astype(np.int64),
-        ulo=_sample_u(change, owner, first, count),
-        uhi=_sample_u(change + 1, owner, first, count),
-        slo=state[change],
-        shi=state[change + 1],
+    rays = SegmentVisibility.of_jit(
+        scene,
+        table,
+        proj.origin,
+        jit.pop("A"),
+        jit.pop("B"),
+        jit.pop("wa"),
+        jit.pop("wb"),
+        jit.pop("own"),
+        max_qi + 1,
+        proj.forward if proj.ortho else None,  # parallel rays from the near plane
+        proj.near,
     )
-    return state[first] if len(count) else np.zeros(0, np.int32), changes
+    state0, changes = [], []
+    for e0, e1 in _launch_bounds(count):
+        at = jit_array(U, (first[e0:e1] - first[e0]).astype(np.uint32))
+        size = jit_array(U, count[e0:e1].astype(np.uint32))
+        total = int(first[e1 - 1] - first[e0] + count[e1 - 1])
+        # each sample's edge: the edges' first samples marked, summed along the samples
+        mark = dr.zeros(U, total)
+        dr.scatter_reduce(dr.ReduceOp.Add, mark, 1, at)
+        owner = dr.cumsum(mark) - 1
+        j = dr.arange(U, total)
+        k = F64(j) - F64(dr.gather(U, at, owner))
+        u = mi.Float(k / F64(dr.gather(U, size, owner) - 1))  # exact in double, then single
+        qi, glass = rays.states(owner + e0, u)
+        state = qi * 2 + dr.select(glass, 1, 0)
+        dr.eval(state)
+        # the changes between neighbouring samples of one edge
+        i = dr.arange(U, total - 1)
+        i = dr.compress(
+            (dr.gather(U, owner, i) == dr.gather(U, owner, i + 1))
+            & (dr.gather(U, state, i) != dr.gather(U, state, i + 1))
+        )
+        got = [dr.gather(U, state, at)]
+        if dr.width(i):  # (an array of no entry does not mix with a literal)
+            got += [dr.gather(U, x, y) for x, y in ((owner, i), (state, i), (state, i + 1))]
+        else:
+            got += [dr.zeros(U, 0)] * 3
+        dr.eval(*got)
+        s0, edge, slo, shi = (np.asarray(x.numpy(), np.int64) for x in got)
+        change = np.asarray(i.numpy(), np.int64) + first[e0]
+        edge += e0
+        state0.append(s0)
+        changes.append(
+            dict(
+                edge=edge,
+                ulo=(change - first[edge]) / (count[edge] - 1),
+                uhi=(change + 1 - first[edge]) / (count[edge] - 1),
+                slo=slo,
+                shi=shi,
+            )
+        )
+    z = np.zeros(0, np.int64)
+    if not changes:
+        return rows, z, dict(edge=z, ulo=z * 0.0, uhi=z * 0.0, slo=z, shi=z)
+    return rows, np.concatenate(state0), _joined(changes)
 
 
 def _rays(
@@ -265,7 +344,7 @@ def _shown(
 class _Pieces:
     """Visibility-split pieces of the clipped feature edges (arrays of length P).
 
-    The samples are cast a launch at a time (:func:`_launches`); an edge whose samples all
+    The samples are cast a launch at a time (:func:`_states`); an edge whose samples all
     agree is one piece at once, the others wait with their changes for one bisection launch
     over all of them (each launch traces the ray loop again). The nodes that are not welded
     vertices are numbered from ``edges.max_node() + 1`` on in the order of all the pieces
@@ -283,8 +362,10 @@ class _Pieces:
         shown, counts, waiting, state0, changes = [], [], [], [], []
         n_edges = n_waiting = 0
         first = getattr(edges, "first", False)
-        for clipped in _launches(proj, edges):
-            s0, ch = _states(scene, table, proj, clipped, max_qi)
+        for c in range(0, max(len(edges), 1), EDGE_CHUNK):
+            clipped, s0, ch = _states(
+                scene, table, proj, edges.take(slice(c, c + EDGE_CHUNK)), max_qi
+            )
             changed = np.zeros(len(s0), bool)
             changed[ch["edge"]] = True
             # an edge whose samples agree: one piece, [0, 1] (kept where it is in sight)

@@ -140,6 +140,69 @@ class SegmentVisibility:
         axis: np.ndarray | None = None,
         near: float = 0.0,
     ) -> None:
+        own = np.asarray(own, np.int64)
+        self._setup(
+            scene,
+            table,
+            origin,
+            _vec(a, mi.Point3f),
+            _vec(np.asarray(b, np.float64) - np.asarray(a, np.float64), mi.Vector3f),
+            jit_array(mi.Float, np.asarray(wa, np.float32)),
+            jit_array(mi.Float, np.asarray(wb, np.float32)),
+            [jit_array(mi.UInt32, own[:, k // 2, k % 2].astype(np.uint32)) for k in range(4)],
+            max_qi,
+            axis,
+            near,
+        )
+
+    @classmethod
+    def of_jit(
+        cls,
+        scene: mi.Scene,
+        table: ObjectTable,
+        origin: np.ndarray,
+        a: list,
+        b: list,
+        wa: Any,
+        wb: Any,
+        own: list,
+        max_qi: int,
+        axis: np.ndarray | None = None,
+        near: float = 0.0,
+    ) -> SegmentVisibility:
+        """The same from Dr.Jit arrays: ends ``a``, ``b`` (three ``mi.Float64`` each, made
+        single precision as the numpy ones are), weights ``wa``, ``wb`` (``mi.Float64``) and
+        ``own`` (four ``mi.UInt32``: object id, prim, object id, prim)."""
+        out = cls.__new__(cls)
+        out._setup(
+            scene,
+            table,
+            origin,
+            mi.Point3f(*(mi.Float(x) for x in a)),
+            mi.Vector3f(*(mi.Float(y - x) for x, y in zip(a, b, strict=True))),
+            mi.Float(wa),
+            mi.Float(wb),
+            list(own),
+            max_qi,
+            axis,
+            near,
+        )
+        return out
+
+    def _setup(
+        self,
+        scene: mi.Scene,
+        table: ObjectTable,
+        origin: np.ndarray,
+        a: mi.Point3f,
+        ab: mi.Vector3f,
+        wa: mi.Float,
+        wb: mi.Float,
+        own: list,
+        max_qi: int,
+        axis: np.ndarray | None,
+        near: float,
+    ) -> None:
         self.scene, self.table, self.max_qi = scene, table, max_qi
         # an evaluated array, not a literal: a literal origin would compile a kernel per view
         self.origin = _vec(np.asarray(origin, np.float64).reshape(1, 3), mi.Point3f)
@@ -148,12 +211,7 @@ class SegmentVisibility:
         if axis is not None:
             self.axis = _vec(np.asarray(axis, np.float64).reshape(1, 3), mi.Vector3f)
             self.near = jit_array(mi.Float, np.array([near], np.float32))
-        self.a = _vec(a, mi.Point3f)
-        self.ab = _vec(np.asarray(b, np.float64) - np.asarray(a, np.float64), mi.Vector3f)
-        self.wa = jit_array(mi.Float, np.asarray(wa, np.float32))
-        self.wb = jit_array(mi.Float, np.asarray(wb, np.float32))
-        own = np.asarray(own, np.int64)
-        self.own = [jit_array(mi.UInt32, own[:, k // 2, k % 2].astype(np.uint32)) for k in range(4)]
+        self.a, self.ab, self.wa, self.wb, self.own = a, ab, wa, wb, own
 
     def _points(
         self, i: mi.UInt32, u: mi.Float
@@ -226,9 +284,13 @@ class SegmentVisibility:
             return _in_launches(self.at, (idx, u))
         i = jit_array(mi.UInt32, np.asarray(idx, np.uint32))
         uu = jit_array(mi.Float, np.asarray(u, np.float32))
-        o, p, d, dist, own = self._points(i, uu)
-        qi, glass = _count(self.scene, self.table, o, p, d, dist, own, self.max_qi)
+        qi, glass = self.states(i, uu)
         return np.asarray(qi.numpy(), np.int32), np.asarray(glass.numpy(), bool)
+
+    def states(self, i: mi.UInt32, u: mi.Float) -> tuple[mi.UInt32, mi.Bool]:
+        """:meth:`at` of Dr.Jit arrays (at most :data:`RAYS`), evaluated."""
+        o, p, d, dist, own = self._points(i, u)
+        return _count(self.scene, self.table, o, p, d, dist, own, self.max_qi)
 
 
 def _in_launches(f: Any, arrays: tuple[np.ndarray, ...], *rest: Any) -> tuple[np.ndarray, ...]:
