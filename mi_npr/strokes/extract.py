@@ -215,9 +215,11 @@ def _states(
         at = jit_array(U, (first[e0:e1] - first[e0]).astype(np.uint32))
         size = jit_array(U, count[e0:e1].astype(np.uint32))
         total = int(first[e1 - 1] - first[e0] + count[e1 - 1])
-        # each sample's edge: the edges' first samples marked, summed along the samples
+        # each sample's edge: the edges' first samples marked (each edge has its own: two
+        # samples at least), summed along the samples; a plain scatter (a reduction into a
+        # small array would bake its size into the kernel: a kernel per size)
         mark = dr.zeros(U, total)
-        dr.scatter_reduce(dr.ReduceOp.Add, mark, 1, at)
+        dr.scatter(mark, 1, at)
         owner = dr.cumsum(mark) - 1
         j = dr.arange(U, total)
         k = F64(j) - F64(dr.gather(U, at, owner))

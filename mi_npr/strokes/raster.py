@@ -179,7 +179,9 @@ def _pixel_tests(
     # marked, summed along the tests; a segment of no test starts where the next one does)
     mark = dr.zeros(mi.UInt32, n)
     marked = mi.UInt32(start[start < n].astype(np.uint32))
-    dr.scatter_reduce(dr.ReduceOp.Add, mark, 1, marked)
+    # atomics (a reduction into a small array by copies per thread would bake its size into
+    # the kernel: a kernel per size)
+    dr.scatter_reduce(dr.ReduceOp.Add, mark, 1, marked, mode=dr.ReduceMode.Direct)
     s = dr.cumsum(mark) - 1
     j = dr.arange(mi.UInt32, n)
 
