@@ -71,7 +71,7 @@ def _film_param_to_3d(u: np.ndarray, wa: np.ndarray, wb: np.ndarray) -> np.ndarr
 #: edges, ~200 bytes each, and of the samples and their rays, ~50 bytes each, whatever the
 #: film's size; each launch traces the ray loop again, so the bisections of all the launches
 #: wait for one launch after them).
-EDGE_CHUNK = 1 << 17
+EDGE_CHUNK = 1 << 16
 SAMPLES = 1 << 19
 
 
@@ -105,29 +105,35 @@ def _clip(proj: Projector, edges: FeatureEdges) -> tuple[dict[str, Any], dict[st
     b = [jit_array(F64, edges.b[:, k]) for k in range(3)]
     # the camera as evaluated scalars, not literals: one kernel for every view
     m = [[dr.opaque(F64, float(x)) for x in row] for row in proj.matrix]
-    ha, hb = homogeneous(m, *a), homogeneous(m, *b)
     near = dr.opaque(F64, proj.near)
-    x0, y0, w0, z0 = ha[0], ha[1], ha[3], ha[proj.depth_row]
-    x1, y1, w1, z1 = hb[0], hb[1], hb[3], hb[proj.depth_row]
-    lo, hi = dr.zeros(F64, n), dr.full(F64, 1.0, n)
-    for f0, f1 in (
-        (z0 - near, z1 - near),
-        (x0, x1),
-        (w0 - x0, w1 - x1),
-        (y0, y1),
-        (w0 - y0, w1 - y1),
-    ):
-        d = f1 - f0
-        t = -f0 / d
-        lo = dr.select(d > 0, dr.maximum(lo, t), lo)
-        hi = dr.select(d < 0, dr.minimum(hi, t), hi)
-        lo = dr.select((d == 0) & (f0 < 0), 2.0, lo)
+
+    def interval(a: list, b: list) -> tuple[list, list, Any, Any]:
+        ha, hb = homogeneous(m, *a), homogeneous(m, *b)
+        x0, y0, w0, z0 = ha[0], ha[1], ha[3], ha[proj.depth_row]
+        x1, y1, w1, z1 = hb[0], hb[1], hb[3], hb[proj.depth_row]
+        lo, hi = dr.zeros(F64, dr.width(x0)), dr.full(F64, 1.0, dr.width(x0))
+        for f0, f1 in (
+            (z0 - near, z1 - near),
+            (x0, x1),
+            (w0 - x0, w1 - x1),
+            (y0, y1),
+            (w0 - y0, w1 - y1),
+        ):
+            d = f1 - f0
+            t = -f0 / d
+            lo = dr.select(d > 0, dr.maximum(lo, t), lo)
+            hi = dr.select(d < 0, dr.minimum(hi, t), hi)
+            lo = dr.select((d == 0) & (f0 < 0), 2.0, lo)
+        return ha, hb, lo, hi
+
+    _, _, lo, hi = interval(a, b)
     e = dr.compress(hi - lo > 1e-12)
     if dr.width(e) == 0:
         return _clipped_none()
-    lo, hi = dr.gather(F64, lo, e), dr.gather(F64, hi, e)
+    # the edges kept, their interval made again from their ends (the same arithmetic: the
+    # same bits) rather than kept for every edge
     a, b = [dr.gather(F64, x, e) for x in a], [dr.gather(F64, x, e) for x in b]
-    ha, hb = [dr.gather(F64, x, e) for x in ha], [dr.gather(F64, x, e) for x in hb]
+    ha, hb, lo, hi = interval(a, b)
     A = [x + lo * (y - x) for x, y in zip(a, b, strict=True)]
     B = [x + hi * (y - x) for x, y in zip(a, b, strict=True)]
     # the clipped ends' film positions from the ends' homogeneous coordinates (linear)
