@@ -70,7 +70,7 @@ from ..compose import raw_beauty
 from ..errors import ParameterError, as_path
 from ..gbuffer import GBuffer
 from ..params import MAX_RES, Param, check_arg, integer_range, real_range, rgb_color
-from ..strokes.model import KINDS, Stroke, Strokes
+from ..strokes.model import KINDS, Stroke, Strokes, sizes
 from ..strokes.outlines import normals_2d
 from ..strokes.style import Style
 from ._atomic import atomic_output, check_writable_dir, output_set
@@ -211,7 +211,7 @@ def style_arrays(
     width without a taper, are of that vertex alone, so all strokes take one call each; a
     taper's arc lengths are summed along each stroke, so with a taper the widths take a call a
     stroke."""
-    ends = np.cumsum([len(s) for s in strokes], dtype=np.int64)
+    ends = np.cumsum(sizes(strokes), dtype=np.int64)
     if not strokes:
         return np.zeros(0), np.zeros(0), ends
     opacity = style.vertex_opacity(strokes, depth_range)

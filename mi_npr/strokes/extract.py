@@ -42,7 +42,7 @@ from ..raytree.tracer import MAX_DEPTH
 from ..scene import ObjectTable, object_table
 from .chain import chain_order
 from .edges import FeatureEdges, Projector, ViewEdges, forget_topology, homogeneous, view_edges
-from .model import KINDS, Stroke, Strokes
+from .model import KINDS, Stroke, Strokes, sizes
 from .outlines import ids_and_depths, outline_strokes
 from .raytree import raytree_strokes
 from .visibility import SegmentVisibility, jit_array
@@ -509,8 +509,8 @@ def resampled(stroke: Stroke, spacing: float, ortho: bool = False) -> Stroke:
 
 def resampled_all(strokes: list[Stroke], spacing: float, ortho: bool = False) -> list[Stroke]:
     """:func:`resampled` of every stroke, as array operations over all their vertices."""
-    size = np.array([len(s) for s in strokes], np.int64)
-    todo = [i for i, s in enumerate(strokes) if len(s) >= 2]
+    size = sizes(strokes)
+    todo = np.flatnonzero(size >= 2).tolist()
     out = list(strokes)
     if not todo:
         return out
@@ -605,7 +605,7 @@ def _add_depth_behind(
 ) -> None:
     if not strokes:
         return
-    size = np.array([len(s) for s in strokes])
+    size = sizes(strokes)
     pts = np.concatenate([s.points for s in strokes])
     nrm = _normals(pts, size, np.array([s.closed for s in strokes]))
     # the two sides of a block of vertices at a time (memory: the hits of one block)

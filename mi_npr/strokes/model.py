@@ -7,7 +7,7 @@ Film coordinates: ``x`` to the right, ``y`` down, pixel ``(i, j)`` spans ``[i, i
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -106,6 +106,12 @@ class Stroke:
         """Length in pixels along the polyline (the closing segment included when closed)."""
         p = np.concatenate([self.points, self.points[:1]]) if self.closed else self.points
         return float(np.hypot(*np.diff(p, axis=0).T).sum()) if len(p) > 1 else 0.0
+
+
+def sizes(strokes: Sequence[Stroke]) -> np.ndarray:
+    """The number of vertices of each of ``strokes`` (int64): ``len`` of each one's points,
+    without a Python call per stroke to ``Stroke.__len__``."""
+    return np.fromiter((len(s.points) for s in strokes), np.int64, len(strokes))
 
 
 @dataclass

@@ -24,7 +24,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .model import Stroke, Strokes
+from .model import Stroke, Strokes, sizes
 from .style import Style, arc_lengths
 
 
@@ -227,8 +227,8 @@ def _coverage(
         return z, z, np.zeros(0)
     w = style.vertex_widths(strokes, depth_range)
     o = style.vertex_opacity(strokes, depth_range)
-    size = np.array([len(s) for s in strokes])
-    closed = np.array([s.closed and len(s) > 1 for s in strokes])
+    size = sizes(strokes)
+    closed = (size > 1) & np.fromiter((s.closed for s in strokes), bool, len(strokes))
     pts = np.concatenate([s.points for s in strokes])
     vals = np.stack([w, o], -1)
     if closed.any():  # a closed stroke ends where it starts

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..params import Param, coerce, real_range, rgb_color
-from .model import KINDS, Stroke
+from .model import KINDS, Stroke, sizes
 
 #: The widest stroke, in pixels.
 MAX_WIDTH = 256.0
@@ -194,7 +194,7 @@ class Style:
         """:meth:`widths` of every vertex of ``strokes``, one stroke after the other."""
         if not strokes:
             return np.zeros(0)
-        size = np.array([len(s) for s in strokes])
+        size = sizes(strokes)
         base = [
             self.width
             * float(self.kind_width.get(s.kind, 1.0))
@@ -205,7 +205,7 @@ class Style:
         if self.depth_falloff > 0:
             depth = np.concatenate([s.depth for s in strokes])
             out *= 1.0 - self.depth_falloff * _normalised(depth, depth_range)
-        tapered = np.array([not s.closed and len(s) >= 2 for s in strokes])
+        tapered = (size >= 2) & ~np.fromiter((s.closed for s in strokes), bool, len(strokes))
         if self.taper > 0 and tapered.any():
             pts = np.concatenate([s.points for s in strokes])
             arc, total = arc_lengths(pts, size)
@@ -219,7 +219,7 @@ class Style:
         self, strokes: Sequence[Stroke], depth_range: tuple[float, float]
     ) -> np.ndarray:
         """:meth:`opacity` of every vertex of ``strokes``, one stroke after the other."""
-        n = sum(len(s) for s in strokes)
+        n = int(sizes(strokes).sum())
         if not self.gray or n == 0:
             return np.ones(n)
         d0 = _normalised(np.concatenate([s.depth for s in strokes]), depth_range)
