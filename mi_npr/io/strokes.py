@@ -115,6 +115,14 @@ def _numbers(a: np.ndarray | None, shape: tuple[int, ...] = ()) -> np.ndarray | 
     the non-finite ones as ``null``), or ``None``."""
     if a is None:
         return None
+    if (
+        type(a) is np.ndarray
+        and a.dtype == np.float64
+        and a.shape[1:] == shape
+        and a.ndim == 1 + len(shape)
+        and a.flags.c_contiguous
+    ):
+        return a  # as it is (most are): no three numpy calls a field a stroke
     return np.ascontiguousarray(np.asarray(a, np.float64).reshape(-1, *shape))
 
 
