@@ -584,3 +584,21 @@ def test15_launches_of_whole_edges():
         ]
     finally:
         extract.SAMPLES = old
+
+
+def test16_meshes_out_of_sight_give_no_stroke(tmp_path):
+    """Meshes behind the camera, beside the frame, or cut by the near plane alone (every edge
+    clipped away): no mesh stroke, no error; one edge in sight is enough for its strokes."""
+    behind = (
+        '<shape type="cube"><transform name="to_world"><scale value="0.3"/>'
+        '<translate x="0.3" y="0.8" z="-3"/></transform></shape>'
+    )
+    aside = (
+        '<shape type="cube"><transform name="to_world"><scale value="0.3"/>'
+        '<translate x="40" y="0" z="5"/></transform></shape>'
+    )
+    scene = load(tmp_path, behind + aside)
+    assert len(extract_strokes(scene, scene.sensors()[0], max_qi=2)) == 0
+    scene = load(tmp_path, behind + aside + BOX)
+    st = extract_strokes(scene, scene.sensors()[0], max_qi=2)
+    assert len(st) > 0 and {st.name_of(int(s.object_id[0])) for s in st} == {"box"}

@@ -248,6 +248,7 @@ def _stroke_layer(name: str, layer: StrokeLayer, taken: set[str]) -> list[str]:
     o_hi, o_lo = _runs(np.maximum, opacity, ends), _runs(np.minimum, opacity, ends)
     seen = _runs(np.fmax, opacity, ends)
     bounds = np.concatenate([[0], ends]).tolist()
+    paint: dict[tuple[str, bool], tuple[str, tuple[float, ...]]] = {}
     for k, (i, s) in enumerate(drawn):
         if not seen[k] > 0:
             continue  # transparent everywhere (eq. 5.1 finds no depth step along it)
@@ -256,8 +257,10 @@ def _stroke_layer(name: str, layer: StrokeLayer, taken: set[str]) -> list[str]:
         attrs = f'class="{"visible" if s.qi == 0 else "hidden"}" data-stroke="{i}" data-qi="{s.qi}"'
         if s.through_glass:
             attrs += ' data-through-glass="true"'
-        color = _hex(style.kind_color(s))
-        dash = style.dashes(s)
+        look = (s.kind, s.qi > 0)  # what a stroke's colour and dashes depend on
+        if look not in paint:
+            paint[look] = (_hex(style.kind_color(s)), style.dashes(s))
+        color, dash = paint[look]
         if o_hi[k] - o_lo[k] > 1e-9:
             path = _opacity_runs(attrs, s, w, o, color, dash)
         else:
@@ -303,12 +306,16 @@ def _stroke_layer(name: str, layer: StrokeLayer, taken: set[str]) -> list[str]:
     return out
 
 
+@functools.lru_cache(maxsize=64)
+def _dasharray(dash: tuple[float, ...]) -> str:
+    """A dash pattern's ``stroke-dasharray`` (cached: a drawing has one or two)."""
+    return " ".join(_num(x, STROKE_DIGITS) for x in dash)
+
+
 def _stroked(
     points: np.ndarray, closed: bool, widths: np.ndarray, color: str, dash: tuple[float, ...]
 ) -> str:
-    extra = ""
-    if dash:
-        extra = f' stroke-dasharray="{" ".join(_num(x, STROKE_DIGITS) for x in dash)}"'
+    extra = f' stroke-dasharray="{_dasharray(dash)}"' if dash else ""
     # np.mean's own sum and division, without its wrapper (called once a stroke)
     width = _num(float(np.add.reduce(widths) / len(widths)), STROKE_DIGITS)
     d = _polyline(points, closed, STROKE_DIGITS)
