@@ -259,7 +259,8 @@ def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
     whole build) on another thread; the next ``topology`` of the same meshes goes on from them:
     every array the same as a build from scratch (with the pairs asked for by the prefetch).
     One under way refuses another; one of other meshes is dropped; none starts when the
-    topology is kept already. A render prefetches the whole build, or its first stage where the
+    topology is kept already; a whole build with a crease angle has the edges' kinds at that
+    angle. A render prefetches the whole build, or its first stage where the
     lines' SVG takes the strokes drawing's strokes, and draws the same strokes as the
     extraction alone."""
     from mi_npr.pipeline import render_layers
@@ -283,6 +284,13 @@ def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
         for a, b in zip(got.crossings, ref.crossings, strict=True):
             np.testing.assert_array_equal(a, b)
         assert got.size == ref.size and (got.searched is None) == (pairs is None)
+    # a whole build classifies the edges at the crease angle asked for: the same kinds
+    E._LAST[0] = None
+    assert E.prefetch_topology(table, whole=True, crease_angle=100.0)
+    E.wait_for_topology()
+    got = E.topology(table)
+    assert list(got._kinds) == [100.0]
+    np.testing.assert_array_equal(got._kinds[100.0], E.Topology.of(table).static_kinds(100.0))
     assert not E.prefetch_topology(table)  # kept already
     (tmp_path / "other").mkdir()
     other = object_table(load(tmp_path / "other", '<shape type="cube" id="c"/>'))
@@ -301,7 +309,9 @@ def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
     called = []
     original = E.prefetch_topology
     try:
-        E.prefetch_topology = lambda *a, **k: called.append(k["whole"]) or original(*a, **k)
+        E.prefetch_topology = lambda *a, **k: (
+            called.append((k["whole"], k["crease_angle"])) or original(*a, **k)
+        )
         import mi_npr.pipeline as P
 
         P.prefetch_topology = E.prefetch_topology
@@ -316,7 +326,9 @@ def test08_a_prefetched_first_stage_gives_the_same_topology(tmp_path):
     finally:
         E.prefetch_topology = original
         P.prefetch_topology = original
-    assert called == [True, False, True] and E._EARLY[0] is None
+    # the edges' kinds at the crease angle of the strokes extracted first
+    assert [w for w, _ in called] == [True, False, True] and E._EARLY[0] is None
+    assert called[0][1] == 134.0 and called[2][1] == 100.0
     E._LAST[0] = None
     ids = r.gbuffer.numpy("object_id.V")
     from mi_npr.strokes.intersect import touching_pairs

@@ -600,11 +600,15 @@ _EARLY: list = [None]
 
 
 def prefetch_topology(
-    table: ObjectTable, pairs: np.ndarray | None = None, whole: bool = False
+    table: ObjectTable,
+    pairs: np.ndarray | None = None,
+    whole: bool = False,
+    crease_angle: float | None = None,
 ) -> bool:
     """Start the part of :func:`topology`'s build for ``table`` that reads only the vertex
     positions (:func:`_early_stage`: the intersection search of ``pairs``, then the weld; with
-    ``whole``, the whole build) on a thread of its own, and return at once: whether it started
+    ``whole``, the whole build, and the edges' kinds at ``crease_angle`` when given,
+    :meth:`Topology.static_kinds`) on a thread of its own, and return at once: whether it started
     (not when the topology is kept already or under way, ``table`` has no mesh, or another one
     is still running; one of other meshes that is done is dropped). That part is numpy and
     SciPy work, which leaves Python's lock to the calling thread most of the time, so a render
@@ -626,6 +630,8 @@ def prefetch_topology(
         build = Topology.from_soup if whole else _early_stage
         try:
             holder["early"] = build(soup.pop(0), soup.pop(0), soup.pop(0), pairs)
+            if whole and crease_angle is not None:  # the first view's classification
+                holder["early"].static_kinds(crease_angle)
         except BaseException:  # the build starts over on the caller's thread
             pass
 
