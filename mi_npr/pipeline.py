@@ -240,9 +240,9 @@ def _topology_ahead(
     the lines' SVG takes the strokes drawing's strokes: the anti-aliased lines may then be
     drawn before the strokes, and the first stage alone (the intersection search and the
     weld) is built ahead, so that the rest is not alive through them; a whole build classifies
-    the edges too (their kinds at the crease angle of the strokes extracted first). The beauty keeps both
-    cores busy, so this work is not free, but it takes half the time there that it takes
-    alone on one core after the beauty."""
+    the edges too (their kinds at the crease angle of the strokes extracted first). The beauty
+    keeps both cores busy, so this work is not free, but it takes half the time there that it
+    takes alone on one core after the beauty."""
     if "strokes" not in on and not ("lines" in on and vector):
         return None
     try:

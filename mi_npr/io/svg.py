@@ -211,14 +211,15 @@ def style_arrays(
     width without a taper, are of that vertex alone, so all strokes take one call each; a
     taper's arc lengths are summed along each stroke, so with a taper the widths take a call a
     stroke."""
-    ends = np.cumsum(sizes(strokes), dtype=np.int64)
+    size = sizes(strokes)
+    ends = np.cumsum(size, dtype=np.int64)
     if not strokes:
         return np.zeros(0), np.zeros(0), ends
-    opacity = style.vertex_opacity(strokes, depth_range)
+    opacity = style.vertex_opacity(strokes, depth_range, size)
     if style.taper > 0:
         widths = np.concatenate([style.widths(s, depth_range) for s in strokes])
     else:
-        widths = style.vertex_widths(strokes, depth_range)
+        widths = style.vertex_widths(strokes, depth_range, size)
     return widths, opacity, ends
 
 

@@ -225,9 +225,9 @@ def _coverage(
     z = np.zeros(0, np.int64)
     if not strokes:
         return z, z, np.zeros(0)
-    w = style.vertex_widths(strokes, depth_range)
-    o = style.vertex_opacity(strokes, depth_range)
     size = sizes(strokes)
+    w = style.vertex_widths(strokes, depth_range, size)
+    o = style.vertex_opacity(strokes, depth_range, size)
     closed = (size > 1) & np.fromiter((s.closed for s in strokes), bool, len(strokes))
     pts = np.concatenate([s.points for s in strokes])
     vals = np.stack([w, o], -1)

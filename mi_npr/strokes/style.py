@@ -189,12 +189,16 @@ class Style:
         return self.vertex_opacity([stroke], depth_range)
 
     def vertex_widths(
-        self, strokes: Sequence[Stroke], depth_range: tuple[float, float]
+        self,
+        strokes: Sequence[Stroke],
+        depth_range: tuple[float, float],
+        size: np.ndarray | None = None,
     ) -> np.ndarray:
-        """:meth:`widths` of every vertex of ``strokes``, one stroke after the other."""
+        """:meth:`widths` of every vertex of ``strokes``, one stroke after the other (``size``:
+        their :func:`~mi_npr.strokes.model.sizes`, when known)."""
         if not strokes:
             return np.zeros(0)
-        size = sizes(strokes)
+        size = sizes(strokes) if size is None else size
         base = [
             self.width
             * float(self.kind_width.get(s.kind, 1.0))
@@ -216,10 +220,14 @@ class Style:
         return out
 
     def vertex_opacity(
-        self, strokes: Sequence[Stroke], depth_range: tuple[float, float]
+        self,
+        strokes: Sequence[Stroke],
+        depth_range: tuple[float, float],
+        size: np.ndarray | None = None,
     ) -> np.ndarray:
-        """:meth:`opacity` of every vertex of ``strokes``, one stroke after the other."""
-        n = int(sizes(strokes).sum())
+        """:meth:`opacity` of every vertex of ``strokes``, one stroke after the other (``size``
+        as :meth:`vertex_widths`')."""
+        n = int((sizes(strokes) if size is None else size).sum())
         if not self.gray or n == 0:
             return np.ones(n)
         d0 = _normalised(np.concatenate([s.depth for s in strokes]), depth_range)
