@@ -485,8 +485,11 @@ def _clip_by_loops(m, width, height, near, depth_row, a, b):
     """The frustum clip of one segment, written as loops (Liang-Barsky on the homogeneous
     coordinates): the interval (lo, hi) of ``a + s (b - a)`` with ``near <= depth``,
     ``0 <= X <= W``, ``0 <= Y <= W``."""
-    ha = [sum(a[k] * m[r][k] for k in range(3)) + m[r][3] for r in range(4)]
-    hb = [sum(b[k] * m[r][k] for k in range(3)) + m[r][3] for r in range(4)]
+    with np.errstate(invalid="ignore"):  # an infinite end times a zero entry
+        ha = [sum(a[k] * m[r][k] for k in range(3)) + m[r][3] for r in range(4)]
+        hb = [sum(b[k] * m[r][k] for k in range(3)) + m[r][3] for r in range(4)]
+    if not all(math.isfinite(x) for x in ha + hb):
+        return None
     lo, hi = 0.0, 1.0
     bounds = [
         (ha[depth_row] - near, hb[depth_row] - near),
@@ -510,8 +513,9 @@ def test14_the_frustum_clip_against_loops(tmp_path):
     """The extraction's clip (Dr.Jit, in double precision) against the same clip written as
     loops in the test, on random segments around a perspective and an orthographic camera:
     in front, behind, across the near plane and the frame's sides, along a bound, of zero
-    length; the same edges kept, in order, their clipped ends within 1e-9, the ends the
-    frustum did not cut marked whole, and the samples every half pixel (at least two)."""
+    length, with an end not finite; the same edges kept, in order, their clipped ends within
+    1e-9, the ends the frustum did not cut marked whole, and the samples every half pixel (at
+    least two)."""
     from mi_npr.strokes.edges import FeatureEdges, Projector
     from mi_npr.strokes.extract import SPACING, _clip
 
@@ -532,6 +536,7 @@ def test14_the_frustum_clip_against_loops(tmp_path):
         b[:20] = a[:20]  # no length
         b[20:40, 2] = a[20:40, 2]  # along a depth bound
         a[40:60, 2] = proj.origin[2] + rng.uniform(-2, 0.005, 20)  # about the near plane
+        a[60, 0], b[61, 1], a[62, 2] = np.nan, np.inf, -np.inf  # ends not finite: dropped
         z = np.zeros(n, np.int64)
         faces = np.zeros((n, 2, 2), np.int64)
         edges = FeatureEdges(a, b, z, z, z, z.astype(np.uint32), z.astype(np.uint32), faces)

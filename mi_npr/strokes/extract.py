@@ -96,7 +96,8 @@ def _clip(proj: Projector, edges: FeatureEdges) -> tuple[dict[str, Any], dict[st
     The frustum cuts a segment ``a + s (b - a)`` where one of its ends' homogeneous
     coordinates (:meth:`~mi_npr.strokes.edges.Projector.clip`, affine in ``s``) crosses a
     bound: depth at the near plane, ``0 <= X <= W``, ``0 <= Y <= W`` (Liang-Barsky); a
-    bound parallel to a segment outside it leaves nothing of it."""
+    bound parallel to a segment outside it leaves nothing of it, nor does an end whose
+    coordinates are not all finite."""
     F64 = mi.Float64
     n = len(edges)
     if n == 0:  # Dr.Jit arrays of no entry do not mix with the camera's scalars
@@ -126,8 +127,10 @@ def _clip(proj: Projector, edges: FeatureEdges) -> tuple[dict[str, Any], dict[st
             lo = dr.select((d == 0) & (f0 < 0), 2.0, lo)
         return ha, hb, lo, hi
 
-    _, _, lo, hi = interval(a, b)
-    e = dr.compress(hi - lo > 1e-12)
+    ha, hb, lo, hi = interval(a, b)
+    # an end with a coordinate that is not finite (a NaN vertex) has nothing to draw
+    finite = dr.isfinite(ha[0] + ha[1] + ha[2] + ha[3] + hb[0] + hb[1] + hb[2] + hb[3])
+    e = dr.compress(finite & (hi - lo > 1e-12))
     if dr.width(e) == 0:
         return _clipped_none()
     # the edges kept, their interval made again from their ends (the same arithmetic: the
@@ -230,7 +233,9 @@ def _states(
         j = dr.arange(U, total)
         k = F64(j) - F64(dr.gather(U, at, owner))
         u = mi.Float(k / F64(dr.gather(U, size, owner) - 1))  # exact in double, then single
-        qi, glass = rays.states(owner + e0, u)
+        # (the launch's first edge as an evaluated scalar: a literal would make a kernel of
+        # the ray loop for every value)
+        qi, glass = rays.states(owner + dr.opaque(U, e0), u)
         state = qi * 2 + dr.select(glass, 1, 0)
         dr.eval(state)
         # the changes between neighbouring samples of one edge
