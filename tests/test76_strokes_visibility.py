@@ -515,7 +515,8 @@ def test14_the_frustum_clip_against_loops(tmp_path):
     in front, behind, across the near plane and the frame's sides, along a bound, of zero
     length, with an end not finite; the same edges kept, in order, their clipped ends within
     1e-9, the ends the frustum did not cut marked whole, and the samples every half pixel (at
-    least two)."""
+    least two); and, whatever the algorithm, the kept parts inside the frustum and the points
+    just past a cut end outside it."""
     from mi_npr.strokes.edges import FeatureEdges, Projector
     from mi_npr.strokes.extract import SPACING, _clip
 
@@ -564,6 +565,20 @@ def test14_the_frustum_clip_against_loops(tmp_path):
         count = np.maximum(2, np.ceil(length / SPACING).astype(np.int64) + 1)
         assert np.abs(rows["count"] - count).max() <= 1  # (a length on a multiple of SPACING)
         assert (rows["count"] == count).mean() > 0.99
+        # independently of the algorithm: the kept parts lie in the frustum (projected), and
+        # just past a cut end a segment is outside it
+        s = np.linspace(0.0, 1.0, 9)[:, None, None]
+        inner = rows["A"][None] + s * (rows["B"] - rows["A"])[None]
+        xy, depth = proj.film(inner.reshape(-1, 3))
+        tol = 1e-6
+        assert (depth >= proj.near - tol).all()
+        assert ((xy >= -tol) & (xy <= np.array([proj.width, proj.height]) + tol)).all()
+        for end, cut, step in ((lo, ~rows["whole_a"], -1e-6), (hi, ~rows["whole_b"], 1e-6)):
+            past = a[i] + (end + step)[:, None] * (b[i] - a[i])
+            pxy, pdepth = proj.film(past[cut])
+            outside = (pdepth < proj.near) | (pxy < 0).any(1)
+            outside |= (pxy > np.array([proj.width, proj.height])).any(1)
+            assert outside.all()
 
 
 def test15_launches_of_whole_edges():
