@@ -26,6 +26,7 @@ import numpy as np
 
 from .model import Stroke, Strokes, sizes
 from .style import Style, arc_lengths
+from .visibility import jit_array
 
 
 def dash_pieces(
@@ -178,7 +179,7 @@ def _pixel_tests(
     # each test's segment: the last one starting at or before it (the segments' starts
     # marked, summed along the tests; a segment of no test starts where the next one does)
     mark = dr.zeros(mi.UInt32, n)
-    marked = mi.UInt32(start[start < n].astype(np.uint32))
+    marked = jit_array(mi.UInt32, start[start < n].astype(np.uint32))
     # atomics (a reduction into a small array by copies per thread would bake its size into
     # the kernel: a kernel per size)
     dr.scatter_reduce(dr.ReduceOp.Add, mark, 1, marked, mode=dr.ReduceMode.Direct)
@@ -186,7 +187,7 @@ def _pixel_tests(
     j = dr.arange(mi.UInt32, n)
 
     def at(values: np.ndarray, kind: type = mi.Float64) -> Any:
-        return dr.gather(kind, kind(np.ascontiguousarray(values)), s)
+        return dr.gather(kind, jit_array(kind, values), s)
 
     k = mi.Int32(j - at(start.astype(np.uint32), mi.UInt32))
     w = dr.maximum(at(nx.astype(np.int32), mi.Int32), 1)  # a kernel's idle lanes read 0
