@@ -45,7 +45,7 @@ from .edges import FeatureEdges, Projector, ViewEdges, forget_topology, homogene
 from .model import KINDS, Stroke, Strokes, sizes
 from .outlines import ids_and_depths, outline_strokes
 from .raytree import raytree_strokes
-from .visibility import SegmentVisibility, jit_array
+from .visibility import SegmentVisibility, jit_array, own_arrays
 
 #: Film distance between visibility samples along an edge, in pixels.
 SPACING = 0.5
@@ -158,8 +158,7 @@ def _clip(proj: Projector, edges: FeatureEdges) -> tuple[dict[str, Any], dict[st
     for k in ("va", "vb", "kind", "object_id", "prim", "faces"):
         rows[k] = getattr(edges, k) if all_rows else getattr(edges, k)[idx]
     rows["faces"] = rows["faces"].astype(np.uint32)  # ids and primitives: 32 bits each
-    own = [jit_array(mi.UInt32, rows["faces"][:, k // 2, k % 2]) for k in range(4)]
-    return dict(A=A, B=B, wa=wa, wb=wb, own=own), rows
+    return dict(A=A, B=B, wa=wa, wb=wb, own=own_arrays(rows["faces"])), rows
 
 
 def _clipped_none() -> tuple[dict[str, Any], dict[str, np.ndarray]]:

@@ -62,6 +62,13 @@ def _vec(a: np.ndarray, kind: type) -> object:
     return kind(*(jit_array(mi.Float, a[:, k]) for k in range(3)))
 
 
+def own_arrays(own: np.ndarray) -> list:
+    """The faces a point lies on, ``own`` (N, 2, 2): ``(object id, prim)`` of up to two faces
+    each, as the QI loop takes them: four ``mi.UInt32`` (object id, prim, object id, prim)."""
+    own = np.asarray(own)
+    return [jit_array(mi.UInt32, own[:, k // 2, k % 2].astype(np.uint32)) for k in range(4)]
+
+
 def _bounded(o: mi.Point3f, d: mi.Vector3f, maxt: mi.Float) -> mi.Ray3f:
     """The ray ``o + t d``, ``t < maxt`` (``mi.Ray3f(o, d, x)`` would read ``x`` as the time)."""
     ray = mi.Ray3f(o, d)
@@ -100,7 +107,6 @@ def quantitative_invisibility(
     d = d / np.where(dist > 0, dist, 1.0)[:, None]
     if own is None:
         own = np.zeros((n, 2, 2), np.int64)
-    own = np.asarray(own, np.int64)
     qi, glass = _count(
         scene,
         table,
@@ -108,7 +114,7 @@ def quantitative_invisibility(
         _vec(p, mi.Point3f),
         _vec(d, mi.Vector3f),
         jit_array(mi.Float, dist.astype(np.float32)),
-        [jit_array(mi.UInt32, own[:, k // 2, k % 2].astype(np.uint32)) for k in range(4)],
+        own_arrays(own),
         max_qi,
     )
     return np.asarray(qi.numpy(), np.int32), np.asarray(glass.numpy(), bool)
@@ -140,7 +146,6 @@ class SegmentVisibility:
         axis: np.ndarray | None = None,
         near: float = 0.0,
     ) -> None:
-        own = np.asarray(own, np.int64)
         self._setup(
             scene,
             table,
@@ -149,7 +154,7 @@ class SegmentVisibility:
             _vec(np.asarray(b, np.float64) - np.asarray(a, np.float64), mi.Vector3f),
             jit_array(mi.Float, np.asarray(wa, np.float32)),
             jit_array(mi.Float, np.asarray(wb, np.float32)),
-            [jit_array(mi.UInt32, own[:, k // 2, k % 2].astype(np.uint32)) for k in range(4)],
+            own_arrays(own),
             max_qi,
             axis,
             near,
@@ -172,7 +177,7 @@ class SegmentVisibility:
     ) -> SegmentVisibility:
         """The same from Dr.Jit arrays: ends ``a``, ``b`` (three ``mi.Float64`` each, made
         single precision as the numpy ones are), weights ``wa``, ``wb`` (``mi.Float64``) and
-        ``own`` (four ``mi.UInt32``: object id, prim, object id, prim)."""
+        ``own`` (:func:`own_arrays`')."""
         out = cls.__new__(cls)
         out._setup(
             scene,
