@@ -189,7 +189,7 @@ def render_layers(
     # is then dropped before the anti-aliased lines (or kept for the strokes drawing).
     once = session.source is not None
     svg_strokes = None
-    if "lines" in on and vector and not _lines_reuse_strokes(on):
+    if _lines_extract_own(on, vector):
         with session.step("lines as strokes"):
             # what Dr.Jit keeps for reuse from the render (the beauty's samples, the film) is
             # freed first: the strokes' visibility rays take its place, not memory beside it
@@ -251,8 +251,7 @@ def _topology_ahead(
         return None
 
     whole = not ("lines" in on and vector and _lines_reuse_strokes(on))
-    lines_first = "lines" in on and vector and not _lines_reuse_strokes(on)
-    first = "lines" if lines_first else "strokes"
+    first = "lines" if _lines_extract_own(on, vector) else "strokes"
 
     def start(layers: dict[str, Any]) -> None:
         ids = None if "strokes" in on else np.asarray(layers[L.OBJECT_ID])
@@ -278,6 +277,13 @@ def _lines_reuse_strokes(on: Mapping[str, Mapping[str, Any]]) -> bool:
     if "strokes" not in on or "lines" not in on:
         return False
     return _reuses(on["lines"]["crease_angle"], on["strokes"]["crease_angle"])
+
+
+def _lines_extract_own(on: Mapping[str, Mapping[str, Any]], vector: bool) -> bool:
+    """Whether a render of the drawings ``on`` extracts strokes for ``<stem>_lines.svg`` of its
+    own (:func:`line_strokes`, right after the beauty): the ``lines`` drawing with its vector
+    form, not taking the ``strokes`` drawing's."""
+    return "lines" in on and vector and not _lines_reuse_strokes(on)
 
 
 #: The layer of ``<stem>_lines.svg`` that holds the ``lines`` drawing.
