@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from .order import lexsort_ints
+
 #: Pieces shorter than this on the film (pixels) never break a chain by turning.
 SHORT = 1.0
 
@@ -43,7 +45,7 @@ def _links(
     ends_node = np.concatenate([node0, node1]).astype(np.int64)
     ends_cls = np.concatenate([cls, cls]).astype(np.int64)
     ends_dir = np.concatenate([dir0, dir1]).astype(np.float64)
-    order = np.lexsort((ends_cls, ends_node))
+    order = lexsort_ints((ends_cls, ends_node))
     key_node, key_cls = ends_node[order], ends_cls[order]
     new = np.ones(len(order), bool)
     new[1:] = (key_node[1:] != key_node[:-1]) | (key_cls[1:] != key_cls[:-1])
@@ -162,7 +164,7 @@ def chain_order(
     keep = np.where(closed_head, pred[head] < 0, (hp < other) | ((hp == other) & (hs == 0)))
     s = np.flatnonzero(keep)
     # open chains before closed ones, by their first piece, then along the chain
-    order = np.lexsort((rank[s], hp[s], closed_head[s]))
+    order = lexsort_ints((rank[s], hp[s], closed_head[s]))
     s = s[order]
     new = np.append(True, head[s][1:] != head[s][:-1])
     start = np.append(np.flatnonzero(new), len(s))

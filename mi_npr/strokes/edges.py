@@ -63,6 +63,7 @@ from ..projection import world_to_ndc
 from ..scene import ObjectTable
 from .intersect import intersections
 from .model import KINDS
+from .order import stable_argsort
 
 #: Welding distance, relative to the diagonal of all meshes' bounding box.
 WELD = 1e-6
@@ -197,8 +198,8 @@ def _corner_ends(
     of face ``h // 3`` to the next corner."""
     if isinstance(h, int):
         return wid[f[:, h]], wid[f[:, (h + 1) % 3]]
-    face, corner = h // 3, h % 3
-    return wid[f[face, corner]], wid[f[face, (corner + 1) % 3]]
+    flat = f.reshape(-1)  # half-edge h starts at corner h of the faces' corners in a row
+    return wid[flat[h]], wid[flat[h + np.where(h % 3 == 2, -2, 1)]]
 
 
 def _group_edges(
@@ -212,6 +213,7 @@ def _group_edges(
     ranges of their lower end (the same order as one stable sort of them all); of each
     half-edge only its range is kept meanwhile (one byte or two), its ends found again from
     the faces."""
+    f = np.ascontiguousarray(f)  # (its corners in a row: :func:`_corner_ends`)
     # the ranges: runs of lower ends holding about HALF_EDGES half-edges each
     per_end = np.zeros(n_welded, np.int64)
     for k in range(3):  # a corner at a time: no (F, 3) temporaries
@@ -250,8 +252,9 @@ def _group_edges(
         u, w = _corner_ends(wid, f, sel)
         lo, hi, forward = np.minimum(u, w), np.maximum(u, w), u < w
         del u, w
-        order = np.argsort(lo.astype(np.int64) * n_welded + hi, kind="stable")
-        key = lo[order].astype(np.int64) * n_welded + hi[order]
+        key = lo.astype(np.int64) * n_welded + hi
+        order = stable_argsort(key)
+        key = key[order]
         head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
         del key
         n = np.diff(np.append(head, len(sel)))

@@ -43,6 +43,7 @@ from ..scene import ObjectTable, object_table
 from .chain import chain_order
 from .edges import FeatureEdges, Projector, ViewEdges, forget_topology, homogeneous, view_edges
 from .model import KINDS, Stroke, Strokes, sizes
+from .order import lexsort_ints
 from .outlines import ids_and_depths, outline_strokes
 from .raytree import raytree_strokes
 from .visibility import SegmentVisibility, jit_array, own_arrays
@@ -412,7 +413,7 @@ class _Pieces:
             shown.append(_shown(proj, rows, pieces, max_qi, edge_id))
             counts[edge_id] = np.bincount(pieces[0], minlength=len(edge_id))
         out = _joined(shown)
-        order = np.lexsort((out["rank"], out["edge"]))
+        order = lexsort_ints((out["rank"], out["edge"]))
         out = {k: v[order] for k, v in out.items()}
         # nodes: welded vertices at the edges' own ends, else a number per piece, after all
         # the pieces of the edges before its own; the two pieces of a change share a node

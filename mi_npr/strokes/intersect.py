@@ -29,6 +29,8 @@ from concurrent.futures import ThreadPoolExecutor
 import drjit as dr
 import numpy as np
 
+from .order import stable_argsort
+
 #: Most grid cells per axis over the overlap of two meshes.
 GRID = 64
 #: Candidate pairs tested at once (memory bound).
@@ -83,44 +85,50 @@ def _candidates(
     ia, ib = _inside(alo, ahi, lo, hi), _inside(blo, bhi, lo, hi)
     if not len(ia) or not len(ib):
         return none
+    alo, ahi, blo, bhi = alo[:, ia], ahi[:, ia], blo[:, ib], bhi[:, ib]  # those in the overlap
     extent = float(np.max(hi - lo))
-    sizes = np.concatenate([(ahi[:, ia] - alo[:, ia]).max(0), (bhi[:, ib] - blo[:, ib]).max(0)])
+    sizes = np.concatenate([(ahi - alo).max(0), (bhi - blo).max(0)])
     h = max(float(np.median(sizes)), extent / GRID, 1e-30)
     cells = np.maximum(1, np.ceil((hi - lo) / h).astype(np.int64))
     lo_c, top = lo[:, None], (cells - 1)[:, None]
 
-    def flat_cell(x: np.ndarray) -> np.ndarray:  # (3, n) points -> their cells' flat index
-        c = np.clip(np.floor((x - lo_c) / h).astype(np.int64), 0, top)
+    def cell(x: np.ndarray) -> np.ndarray:  # (3, n) points -> their cells (3, n)
+        return np.clip(np.floor((x - lo_c) / h).astype(np.int64), 0, top)
+
+    def flat(c: np.ndarray) -> np.ndarray:  # cells (3, n) -> their flat index
         return (c[2] * cells[1] + c[1]) * cells[0] + c[0]
 
-    def expand(idx: np.ndarray, tlo: np.ndarray, thi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        c0 = np.clip(np.floor((tlo[:, idx] - lo_c) / h).astype(np.int64), 0, top)
-        span = np.clip(np.floor((thi[:, idx] - lo_c) / h).astype(np.int64), 0, top) - c0 + 1
+    def expand(tlo: np.ndarray, thi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each box's lower corner's cell (3, n), and (box, cell) for every cell it covers."""
+        c0 = cell(tlo)
+        span = cell(thi) - c0 + 1
         count = span[0] * span[1] * span[2]
-        owner = np.repeat(np.arange(len(idx)), count)
+        owner = np.repeat(np.arange(len(count)), count)
         k = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
         sx, sy = span[0][owner], span[1][owner]
         cx = c0[0][owner] + k % sx
         cy = c0[1][owner] + (k // sx) % sy
         cz = c0[2][owner] + k // (sx * sy)
-        return idx[owner], (cz * cells[1] + cy) * cells[0] + cx
+        return c0, owner, (cz * cells[1] + cy) * cells[0] + cx
 
-    a_tri, a_key = expand(ia, alo, ahi)
-    b_tri, b_key = expand(ib, blo, bhi)
-    order = np.argsort(b_key, kind="stable")
-    b_tri, b_key = b_tri[order], b_key[order]
+    ca, a_box, a_key = expand(alo, ahi)
+    cb, b_box, b_key = expand(blo, bhi)
+    order = stable_argsort(b_key)
+    b_box, b_key = b_box[order], b_key[order]
     start = np.searchsorted(b_key, a_key, "left")
     stop = np.searchsorted(b_key, a_key, "right")
     n = stop - start
-    pa = np.repeat(a_tri, n)
+    pa = np.repeat(a_box, n)
     at = np.repeat(a_key, n)
-    pb = b_tri[np.repeat(start, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
+    pb = b_box[np.repeat(start, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
     for k in range(3):  # the boxes overlap: an axis at a time, on the pairs left
         ok = alo[k][pa] <= bhi[k][pb]
         ok &= ahi[k][pa] >= blo[k][pb]
         pa, pb, at = pa[ok], pb[ok], at[ok]
-    keep = flat_cell(np.maximum(alo[:, pa], blo[:, pb])) == at
-    return pa[keep], pb[keep]
+    # the one cell that reports a pair: that of the larger lower corner, whose cell is the
+    # larger of the two corners' cells axis by axis (the cell is monotone in each coordinate)
+    keep = flat(np.maximum(ca[:, pa], cb[:, pb])) == at
+    return ia[pa[keep]], ib[pb[keep]]
 
 
 def _crossing(t: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -25,6 +25,7 @@ import mitsuba as mi
 import numpy as np
 
 from .model import Stroke, Strokes, sizes
+from .order import lexsort_ints, stable_argsort
 from .style import Style, arc_lengths
 from .visibility import jit_array
 
@@ -156,7 +157,7 @@ def _capsules(
     own = np.asarray(owner, np.int64)[own]
     # per owner and pixel, the largest coverage: one sort of one key, a maximum per run
     key = own * (width * height) + idx
-    order = np.argsort(key, kind="stable")
+    order = stable_argsort(key)
     key = key[order]
     head = np.flatnonzero(np.append(True, key[1:] != key[:-1]))
     cov = np.maximum.reduceat(cov[order], head)
@@ -292,11 +293,11 @@ def rasterize(strokes: Strokes, style: Style) -> tuple[np.ndarray, np.ndarray]:
         col = np.asarray([style.kind_color(s) for s in block], np.float32).reshape(-1, 3)
         # strokes laid in order: per pixel, its strokes one level at a time (the k-th stroke
         # over each pixel at level k), every pixel of a level at once
-        order = np.lexsort((stroke, idx))
+        order = lexsort_ints((stroke, idx))
         stroke, idx, a = stroke[order], idx[order], a[order]
         head = np.flatnonzero(np.append(True, idx[1:] != idx[:-1]))
         level = np.arange(len(idx)) - np.repeat(head, np.diff(np.append(head, len(idx))))
-        by_level = np.argsort(level, kind="stable")
+        by_level = stable_argsort(level)
         cut = np.searchsorted(level[by_level], np.arange(1, int(level.max()) + 1))
         for sel in np.split(by_level, cut):
             i, c = idx[sel], a[sel].astype(np.float32)

@@ -1,0 +1,68 @@
+"""Stable orders of integer keys, by one sort of the keys packed with their indices.
+
+``np.argsort(key, kind="stable")`` of int64 keys is a merge sort; ``np.sort`` of int64 values
+is numpy's vectorised (SIMD) quicksort, about ten times faster on the topology's and the
+raster's arrays. Where a key's range and the index fit in 63 bits together, the key shifted
+left past the index bits plus the index sorts into the stable order (equal keys in index
+order), and its low bits are that order; otherwise numpy's own stable sort runs.
+
+>>> import numpy as np
+>>> stable_argsort(np.array([3, 1, 3, 0, 1])).tolist()
+[3, 1, 4, 0, 2]
+>>> lexsort_ints((np.array([1, 0, 1, 0]), np.array([2, 2, 1, 1]))).tolist()
+[3, 2, 1, 0]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def _span(key: np.ndarray) -> tuple[np.ndarray, int]:
+    """``key - min(key)`` (int64 where the span fits it: the caller checks the span) and the
+    span ``max - min`` as a Python int. The difference is taken in int64, or in uint64 for
+    uint64 keys (never negative there), not in a narrow type where it would wrap."""
+    lo, hi = key.min(), key.max()
+    if key.dtype == np.uint64:
+        return key - lo, int(hi) - int(lo)
+    return key.astype(np.int64, copy=False) - int(lo), int(hi) - int(lo)
+
+
+def stable_argsort(key: np.ndarray) -> np.ndarray:
+    """``np.argsort(key, kind="stable")`` of integer keys ``key`` (N,): the same permutation
+    (module docstring)."""
+    key = np.asarray(key)
+    n = len(key)
+    if n < 2 or key.ndim != 1 or key.dtype.kind not in "iu":
+        return np.argsort(key, kind="stable")
+    rel, span = _span(key)
+    bits = (n - 1).bit_length()
+    if span >= 1 << (63 - bits):
+        return np.argsort(key, kind="stable")
+    packed = rel.astype(np.int64, copy=False)  # a new array (the difference): worked in place
+    packed <<= bits
+    packed |= np.arange(n, dtype=np.int64)
+    packed.sort()
+    packed &= (1 << bits) - 1
+    return packed
+
+
+def lexsort_ints(keys: Sequence[np.ndarray]) -> np.ndarray:
+    """``np.lexsort(keys)`` of integer (or boolean) keys (the last the primary, as numpy's):
+    the same permutation, through :func:`stable_argsort` of one combined key where the keys'
+    spans multiply to less than 2**62, else ``np.lexsort`` itself."""
+    keys = [np.asarray(k) for k in keys]
+    keys = [k.view(np.uint8) if k.dtype == bool else k for k in keys]
+    if not keys or len(keys[0]) < 2 or any(k.dtype.kind not in "iu" for k in keys):
+        return np.lexsort(keys)
+    combined, total = None, 1
+    for k in keys:  # the first key is the least significant
+        rel, span = _span(k)
+        if total * (span + 1) >= 1 << 62:
+            return np.lexsort(keys)
+        rel = rel.astype(np.int64, copy=False)
+        combined = rel if combined is None else combined + rel * total
+        total *= span + 1
+    return stable_argsort(combined)
