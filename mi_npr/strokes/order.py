@@ -15,33 +15,40 @@ order), and its low bits are that order; otherwise numpy's own stable sort runs.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 
-def _span(key: np.ndarray) -> tuple[np.ndarray, int]:
-    """``key - min(key)`` (int64 where the span fits it: the caller checks the span) and the
-    span ``max - min`` as a Python int. The difference is taken in int64, or in uint64 for
-    uint64 keys (never negative there), not in a narrow type where it would wrap."""
-    lo, hi = key.min(), key.max()
+def _span(key: np.ndarray) -> tuple[Any, int]:
+    """The least key and the span ``max - min`` (a Python int: no wrap)."""
+    lo = key.min()
+    return lo, int(key.max()) - int(lo)
+
+
+def _from_least(key: np.ndarray, lo: Any) -> np.ndarray:
+    """``key - lo`` as int64, for a span that fits it (the callers check it): the difference
+    taken in int64, or in uint64 for uint64 keys (never negative there), never in a narrow
+    type where it would wrap."""
     if key.dtype == np.uint64:
-        return key - lo, int(hi) - int(lo)
-    return key.astype(np.int64, copy=False) - int(lo), int(hi) - int(lo)
+        return (key - lo).astype(np.int64)
+    return key.astype(np.int64, copy=False) - int(lo)
 
 
 def stable_argsort(key: np.ndarray) -> np.ndarray:
     """``np.argsort(key, kind="stable")`` of integer keys ``key`` (N,): the same permutation
     (module docstring)."""
     key = np.asarray(key)
-    n = len(key)
-    if n < 2 or key.ndim != 1 or key.dtype.kind not in "iu":
+    if key.ndim != 1 or len(key) < 2 or key.dtype.kind not in "iu":
         return np.argsort(key, kind="stable")
-    rel, span = _span(key)
+    n = len(key)
+    lo, span = _span(key)
     bits = (n - 1).bit_length()
     if span >= 1 << (63 - bits):
         return np.argsort(key, kind="stable")
-    packed = rel.astype(np.int64, copy=False)  # a new array (the difference): worked in place
+    packed = _from_least(key, lo)  # a new array: worked in place
     packed <<= bits
     packed |= np.arange(n, dtype=np.int64)
     packed.sort()
@@ -55,14 +62,18 @@ def lexsort_ints(keys: Sequence[np.ndarray]) -> np.ndarray:
     spans multiply to less than 2**62, else ``np.lexsort`` itself."""
     keys = [np.asarray(k) for k in keys]
     keys = [k.view(np.uint8) if k.dtype == bool else k for k in keys]
-    if not keys or len(keys[0]) < 2 or any(k.dtype.kind not in "iu" for k in keys):
+    if (
+        not keys
+        or any(k.ndim != 1 or k.dtype.kind not in "iu" for k in keys)
+        or len({len(k) for k in keys}) != 1
+        or len(keys[0]) < 2
+    ):
         return np.lexsort(keys)
-    combined, total = None, 1
-    for k in keys:  # the first key is the least significant
-        rel, span = _span(k)
-        if total * (span + 1) >= 1 << 62:
-            return np.lexsort(keys)
-        rel = rel.astype(np.int64, copy=False)
-        combined = rel if combined is None else combined + rel * total
+    spans = [_span(k) for k in keys]
+    if math.prod(span + 1 for _, span in spans) >= 1 << 62:
+        return np.lexsort(keys)
+    combined, total = np.zeros(len(keys[0]), np.int64), 1
+    for k, (lo, span) in zip(keys, spans, strict=True):  # the first the least significant
+        combined += _from_least(k, lo) * total
         total *= span + 1
     return stable_argsort(combined)
