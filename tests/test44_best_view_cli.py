@@ -195,3 +195,30 @@ def test06_a_crop_window_does_not_change_the_rated_view(scene_path, tmp_path, ca
     scene = mi_npr.load_scene(cropped)
     a = gbuffer_areas(scene, mi_npr.render_gbuffer(scene, sensor))
     assert pb(a) == pytest.approx(info["quality"], rel=1e-9) and info["quality"] > 0
+
+
+def test07_spp_read_before_an_include_declares_it(tmp_path, capsys):
+    """mitsuba-data's ``sensor_thinlens.xml``: the sensor reads ``$spp`` before the include that
+    declares its default, so the scene loads only with ``spp`` defined up front; ``--spp``
+    defines it as ``render``'s does, and the written sensor takes it."""
+    (tmp_path / "inc.xml").write_text(
+        '<scene version="3.0.0"><default name="spp" value="8"/>' + BODY + "</scene>"
+    )
+    scene = tmp_path / "early.xml"
+    scene.write_text(
+        '<scene version="3.0.0"><sensor type="perspective">'
+        '<transform name="to_world"><lookat origin="2, 3, -5" target="0, 0, 0" up="0, 1, 0"/>'
+        '</transform><sampler type="independent"><integer name="sample_count" value="$spp"/>'
+        '</sampler><film type="hdrfilm"><integer name="width" value="40"/>'
+        '<integer name="height" value="30"/></film></sensor>'
+        '<include filename="inc.xml"/></scene>'
+    )
+    with pytest.raises(RuntimeError, match="spp"):  # Mitsuba's own loader, no define
+        mi_npr.mi.load_file(str(scene))
+    out = tmp_path / "o"
+    code, _, err = _run(capsys, scene, "--measure", "entropy", "--depth", "1", "--res", "16",
+                        "--spp", "3", "--width", "20", "-o", out)  # fmt: skip
+    assert code == 0, err
+    (sensor,) = mi_npr.mi.load_file(str(out / "early_best_view.xml")).sensors()
+    assert sensor.sampler().sample_count() == 3
+    assert mi_npr.projection_of(sensor).resolution == (20, 15)

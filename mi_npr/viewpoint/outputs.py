@@ -96,10 +96,12 @@ def write_best_view(
     check_measure(measure)
     depth = check_arg("write_best_view", entry(SEARCH_PARAMS, "depth"), depth)
     res = check_arg("write_best_view", entry(SEARCH_PARAMS, "res"), res)
-    scene = load_scene(scene_path, merge_defines(defines, more))
-    if scene.sensors() and (resolution is not None or spp is not None):
-        # --width/--height/--spp: the written film
-        resize_sensor(scene.sensors()[0], resolution, spp)
+    defines = merge_defines(defines, more)
+    if spp is not None:  # --spp: the XML's spp default where the scene declares one (it may
+        defines["spp"] = spp  # read ``$spp`` before an include declares it), else the sampler's
+    scene = load_scene(scene_path, defines)
+    if scene.sensors() and resolution is not None:  # --width/--height: the written film
+        resize_sensor(scene.sensors()[0], resolution, None)
     try:
         check_shapes(scene)
     except SceneError as e:
