@@ -379,3 +379,46 @@ def test18_a_stage_is_not_framed_but_a_big_neighbour_is():
 
     assert [s.id() for s in objects_that_matter(scene([0, 3, 0]))] == ["ball"]
     assert sorted(s.id() for s in objects_that_matter(scene([20, 3, 0]))) == ["ball", "big"]
+
+
+def test19_a_flat_object_on_a_stage_is_framed(tmp_path):
+    """mitsuba-data's disk and rectangle scenes: the one object is flat and the only solid
+    shape is the backdrop, a stage holding it. The object is what matters (not the stage, which
+    alone was left once flat shapes were set aside), and every orbit view sees it; a flat shape
+    beside a large object (a floor under a crate) still does not matter."""
+    import mitsuba as mi
+
+    from mi_npr import views
+    from mi_npr.camera import objects_that_matter, sensor_for
+    from mi_npr.session import SceneSession
+
+    def scene(stage_at):
+        return {
+            "type": "scene",
+            "disk": {"type": "disk", "to_world": mi.ScalarTransform4f().translate([0, 0, 1])},
+            "stage": {
+                "type": "cube",
+                "to_world": mi.ScalarTransform4f().translate(stage_at).scale([8, 8, 4]),
+            },
+        }
+
+    assert [s.id() for s in objects_that_matter(mi.load_dict(scene([0, 0, 3])))] == ["disk"]
+    # the same box beside the disk, not around it: an object; the flat disk then does not count
+    assert [s.id() for s in objects_that_matter(mi.load_dict(scene([30, 0, 3])))] == ["stage"]
+    path = tmp_path / "disk.xml"
+    path.write_text(
+        '<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/>'
+        '<transform name="to_world"><lookat origin="3, -3, 4" target="0, 0, 1" up="0, 0, 1"/>'
+        '</transform><film type="hdrfilm"><integer name="width" value="32"/>'
+        '<integer name="height" value="24"/></film></sensor>'
+        '<shape type="disk" id="disk"><transform name="to_world"><translate z="1"/></transform>'
+        '<bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>'
+        '<shape type="cube" id="stage"><transform name="to_world"><scale x="8" y="8" z="4"/>'
+        '<translate z="3"/></transform></shape></scene>'
+    )
+    s = SceneSession.open(path)
+    disk = s.objects.id_of("disk")
+    for vid, cam in views.cameras(views.parse_views("orbit:4"), s.scene, s.sensor):
+        np.testing.assert_allclose(cam.target, [0, 0, 1], atol=1e-6)
+        gb = mi_npr.render(s.scene, sensor=sensor_for(cam, s.sensor), spp=1)
+        assert (gb.object_id == disk).sum() > 20, vid

@@ -5,7 +5,9 @@ that matter (:func:`objects_that_matter`, or the shapes given, e.g. all but a fl
 shapes of emitters (an area light), not flat shapes (floors, backdrops, walls: the box's smallest
 extent below :data:`FLAT` of its largest), not a stage (a ground, a curved backdrop, a dome: a
 box diagonal above :data:`HUGE` times the median of the others' and a box that holds all their
-centres; a house beside a mailbox is no stage), unless that leaves nothing. A
+centres; a house beside a mailbox is no stage), unless that leaves nothing; where the one
+solid shape left is the stage of the flat ones (a disk before a curved backdrop), the flat
+ones are the objects. A
 pinhole camera with horizontal field of view ``fov`` and an image of ``W x H`` pixels sees the
 whole sphere from the distance ``R / sin(phi / 2)`` (:func:`fit_distance`), ``phi`` the smaller
 of its horizontal and vertical fields of view, ``tan(phi_y / 2) = tan(fov / 2) H / W``.
@@ -60,30 +62,30 @@ def objects_that_matter(
     scene: mi.Scene, shapes: Sequence[mi.Shape] | None = None
 ) -> list[mi.Shape]:
     """The shapes a view is framed on (module docstring): all but emitters' shapes, flat
-    shapes and shapes far larger than the rest; all of them when that leaves none. Chosen
-    among ``shapes`` when given (the scene's shapes but those a user ignores): the one rule
-    for every camera placed around a scene (orbit, sphere, best view, exploration paths)."""
+    shapes and stages; a flat object on a stage (a disk before a backdrop) where nothing else
+    is left; all of them when that leaves none. Chosen among ``shapes`` when given (the
+    scene's shapes but those a user ignores): the one rule for every camera placed around a
+    scene (orbit, sphere, best view, exploration paths)."""
     shapes = list(scene.shapes()) if shapes is None else list(shapes)
-    boxes = [shape_bbox(s) for s in shapes]
-    ext = [np.asarray(b[1] - b[0], np.float64) for b in boxes]
-    keep = [
-        s
-        for s, e in zip(shapes, ext, strict=True)
-        if not s.is_emitter() and np.all(np.isfinite(e)) and e.min() > FLAT * max(e.max(), 0)
-    ]
+    boxes = {id(s): shape_bbox(s) for s in shapes}
+    lit = [s for s in shapes if not s.is_emitter() and np.all(np.isfinite(boxes[id(s)]))]
+    ext = {k: np.asarray(b[1] - b[0], np.float64) for k, b in boxes.items()}
+    flat = [s for s in lit if not ext[id(s)].min() > FLAT * max(ext[id(s)].max(), 0)]
+    keep = [s for s in lit if s not in flat]
+
+    def stage(s: mi.Shape, among: list[mi.Shape]) -> bool:
+        """Far larger than the others of ``among`` and holding their centres."""
+        others = [boxes[id(t)] for t in among if t is not s]
+        lo, hi = boxes[id(s)]
+        diag = float(np.linalg.norm(hi - lo))
+        return diag > HUGE * float(
+            np.median([np.linalg.norm(b[1] - b[0]) for b in others])
+        ) and all(np.all((0.5 * (b[0] + b[1]) >= lo) & (0.5 * (b[0] + b[1]) <= hi)) for b in others)
+
     if len(keep) > 1:
-        box = {id(s): boxes[shapes.index(s)] for s in keep}
-        diag = {k: float(np.linalg.norm(b[1] - b[0])) for k, b in box.items()}
-        centre = {k: 0.5 * (b[0] + b[1]) for k, b in box.items()}
-
-        def stage(s: mi.Shape) -> bool:
-            others = [k for k in box if k != id(s)]
-            lo, hi = box[id(s)]
-            return diag[id(s)] > HUGE * float(np.median([diag[k] for k in others])) and all(
-                np.all((centre[k] >= lo) & (centre[k] <= hi)) for k in others
-            )
-
-        keep = [s for s in keep if not stage(s)] or keep
+        keep = [s for s in keep if not stage(s, keep)] or keep
+    elif len(keep) == 1 and flat and stage(keep[0], keep + flat):
+        keep = flat  # the one solid shape is the stage of the flat ones: they are the objects
     return keep or shapes
 
 
