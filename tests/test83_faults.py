@@ -151,6 +151,37 @@ def test04_an_output_set_is_all_or_nothing(tmp_path, monkeypatch):
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # no temp, no mix
 
 
+def test04b_texts_made_beside_the_images_are_all_or_nothing_too(tmp_path):
+    """``write_files`` makes the texts given as functions on another thread while it writes the
+    images: the paths come back in order with the texts' contents; a text that fails leaves
+    neither the images written meanwhile nor any temporary file."""
+    import threading
+
+    from mi_npr.io import write_files
+
+    image = np.full((4, 5, 3), 0.5, np.float32)
+    where = []
+
+    def svg():
+        where.append(threading.current_thread() is threading.main_thread())
+        return "<svg/>"
+
+    out = write_files(tmp_path, [("a.png", image), ("b.svg", svg), ("c.txt", "plain")])
+    assert [p.name for p in out] == ["a.png", "b.svg", "c.txt"] and where == [False]
+    assert (tmp_path / "b.svg").read_text() == "<svg/>" and (
+        tmp_path / "c.txt"
+    ).read_text() == "plain"
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+
+    def broken():
+        raise mi_npr.OutputError("b.svg: cannot make it")
+
+    new = np.zeros((4, 5, 3), np.float32)
+    with pytest.raises(mi_npr.OutputError, match="cannot make it"):
+        write_files(tmp_path, [("a.png", new), ("b.svg", broken), ("d.png", new)])
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # no temp, no mix
+
+
 def test05_fifos_are_not_regular_files_wherever_a_file_is_read_or_written(tmp_path):
     """A FIFO would block whoever opens it: as the --views file, the manifest (read on
     --resume, appended to), a scene's mesh (also through a $define) or an output, it is one

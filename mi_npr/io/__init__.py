@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import os
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -68,9 +69,9 @@ def write_layered_outputs(
     as ``<stem>_beauty.png``) or ``none``. ``only="contours"`` (or ``"raytree"``) writes what
     the ``contours`` (``raytree``) command writes: that drawing's files, its EXR named
     ``<stem>_contours.exr`` (``_raytree``) with ``R G B`` holding the drawing, so the shorthands
-    never overwrite ``render``'s files. Everything is computed before the first file is
-    written; the files are replaced all together or not at all (:func:`output_set`). The same
-    as :func:`write_files` of :func:`layered_files`.
+    never overwrite ``render``'s files. Every file is written under a temporary name before
+    the first is renamed into place: they are replaced all together or not at all
+    (:func:`output_set`). The same as :func:`write_files` of :func:`layered_files`.
     """
     d = check_writable_dir(outdir, create=True)
     files = layered_files(
@@ -163,19 +164,28 @@ def write_files(
     outdir: str | os.PathLike[str], files: Sequence[tuple[str, FileData]]
 ) -> list[Path]:
     """Write ``files`` (:func:`layered_files`) into ``outdir`` all together or none of them
-    (:func:`output_set`); their paths, in order."""
+    (:func:`output_set`); their paths, in order. The texts given as functions (the SVGs, the
+    strokes' JSON: Python, which holds the interpreter's lock) are made on a thread of their
+    own while this one encodes and writes the images (OpenEXR's and zlib's work, which lets go
+    of it); the files are renamed into place once every one is written."""
     d = Path(outdir)
-    texts = [(n, v()) if callable(v) else (n, v) for n, v in files]  # every text before a file
-    out = []
-    with output_set():  # every file together, or none of them
-        for name, data in texts:
-            if isinstance(data, ExrImage):
-                out.append(write_exr_image(d / name, data))
-            elif isinstance(data, str):
-                out.append(write_text(d / name, data))
-            else:
-                out.append(write_png(d / name, data))
-    return out
+    out: list[Path | None] = [None] * len(files)
+    pool = ThreadPoolExecutor(1, "mi-npr texts") if any(callable(v) for _, v in files) else None
+    try:
+        made = {i: pool.submit(v) for i, (_, v) in enumerate(files) if callable(v)} if pool else {}
+        with output_set():  # every file together, or none of them
+            for i, (name, data) in enumerate(files):  # the images, beside the texts
+                if isinstance(data, ExrImage):
+                    out[i] = write_exr_image(d / name, data)
+                elif i not in made and not isinstance(data, str):
+                    out[i] = write_png(d / name, data)
+            for i, (name, data) in enumerate(files):
+                if out[i] is None:
+                    out[i] = write_text(d / name, made[i].result() if i in made else data)
+    finally:
+        if pool is not None:  # a failure: the texts not started are not made
+            pool.shutdown(wait=True, cancel_futures=True)
+    return [p for p in out if p is not None]
 
 
 __all__ = [

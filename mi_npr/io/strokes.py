@@ -62,6 +62,7 @@ Every stroke is listed, drawn or not (``drawn``: hidden lines with ``hidden`` of
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 from pathlib import Path
@@ -200,10 +201,11 @@ def strokes_on_paper(drawing: StrokeDrawing, paper: Any = PAPER) -> np.ndarray:
 def stroke_files(
     drawing: StrokeDrawing, stem: str, title: str | None = None
 ) -> list[tuple[str, Any]]:
-    """``(file name, content)`` of the three files: SVG and JSON text, the PNG's image."""
+    """``(file name, content)`` of the three files: the functions that make the SVG and the
+    JSON text (made where they are written, :func:`mi_npr.io.write_files`), the PNG's image."""
     return [
-        (f"{stem}_strokes.svg", stroke_svg(drawing, title)),
-        (f"{stem}_strokes.json", stroke_json(drawing)),
+        (f"{stem}_strokes.svg", functools.partial(stroke_svg, drawing, title)),
+        (f"{stem}_strokes.json", functools.partial(stroke_json, drawing)),
         (f"{stem}_strokes.png", strokes_on_paper(drawing)),
     ]
 
@@ -217,8 +219,8 @@ def write_strokes(
     out = []
     with output_set():
         for name, data in files:
-            if isinstance(data, str):
-                out.append(write_text(d / name, data))
+            if callable(data):
+                out.append(write_text(d / name, data()))
             else:
                 out.append(write_png(d / name, data))
     return out
