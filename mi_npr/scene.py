@@ -254,7 +254,9 @@ def load_scene(
         msg = one_line(e)
         if path not in msg:
             msg = f"{path}: {msg}"
-        if "polarized" in msg.lower() and "polarized" not in str(mi.variant()):
+        low = msg.lower()
+        missing = any(m in low for m in ("does not exist", "file not found", "no such file"))
+        if "polarized" in low and "polarized" not in str(mi.variant()) and not missing:
             msg += (
                 f" (the variant is {mi.variant()}: render it in a polarized one such as "
                 "llvm_ad_spectral_polarized, with --variant or mi_npr.set_variant)"

@@ -232,6 +232,18 @@ def test13_variant_errors_speak_the_command_line(ball, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "polarized mode" in err and "such as llvm_ad_spectral_polarized, with --variant" in err
     assert "\n" not in err
+    # a polarized plugin whose file is missing: the file is the problem, not the variant
+    gone = tmp_path / "gone.xml"
+    gone.write_text(
+        scene_xml(
+            '<shape type="sphere"><point name="center" x="0" y="0" z="3"/>'
+            '<bsdf type="measured_polarized"><string name="filename" value="gone.pbsdf"/>'
+            '<float name="wavelength" value="550"/></bsdf></shape>'
+        )
+    )
+    assert cli.main(["render", str(gone), "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "gone.pbsdf" in err and "--variant" not in err, err
     assert cli.main(["--variant", "scalar_rgb", "render", str(ball), "-o", str(out)]) == 1
     err = capsys.readouterr().err.strip()
     assert err == (
