@@ -70,8 +70,9 @@ def objects_that_matter(
     boxes = {id(s): shape_bbox(s) for s in shapes}
     lit = [s for s in shapes if not s.is_emitter() and np.all(np.isfinite(boxes[id(s)]))]
     ext = {k: np.asarray(b[1] - b[0], np.float64) for k, b in boxes.items()}
-    flat = [s for s in lit if not ext[id(s)].min() > FLAT * max(ext[id(s)].max(), 0)]
-    keep = [s for s in lit if s not in flat]
+    is_flat = {id(s): not ext[id(s)].min() > FLAT * max(ext[id(s)].max(), 0) for s in lit}
+    flat = [s for s in lit if is_flat[id(s)]]
+    keep = [s for s in lit if not is_flat[id(s)]]
 
     def stage(s: mi.Shape, among: list[mi.Shape]) -> bool:
         """Far larger than the others of ``among`` and holding their centres."""
