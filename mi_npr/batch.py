@@ -85,6 +85,7 @@ from .params import (
     Param,
     check_arg,
     integer_range,
+    names,
     real_range,
 )
 from .pipeline import render_layers
@@ -382,6 +383,8 @@ class BatchSettings:
     views_per_launch: int = 1
     #: the scene's integrator renders ``R G B``; else the G-buffer pass's headlight shading
     beauty: bool = True
+    #: the objects orbits, spheres and best views frame (``--frame``; none: those that matter)
+    frame: tuple[str, ...] = ()
 
     def flags(self) -> dict[str, Any]:
         """What makes two renders of a job equal (compared by ``resume``), JSON-ready."""
@@ -398,6 +401,7 @@ class BatchSettings:
             "line_color": list(self.line_color) if self.line_color else None,
             "paper": list(self.paper) if self.paper else None,
             **({} if self.beauty else {"beauty": False}),  # earlier runs' keys stay valid
+            **({"frame": list(self.frame)} if self.frame else {}),
         }
 
 
@@ -476,7 +480,7 @@ def _scene(settings: BatchSettings, job: Job) -> tuple[Any, dict[str, Any]]:
         job.scene, spp=settings.spp, defines=dict(settings.defines), resolution=size
     )
     with session.step("placing the cameras"):
-        cams = dict(cameras(settings.views, session.scene, session.sensor))
+        cams = dict(cameras(settings.views, session.scene, session.sensor, settings.frame))
     _SCENES[key] = (session, cams)
     while len(_SCENES) > SCENE_CACHE:
         _SCENES.popitem(last=False)
@@ -772,6 +776,7 @@ def run(
     on_dashboard: Callable[[str], None] | None = None,
     views_per_launch: int = 1,
     beauty: bool = True,
+    frame: Sequence[str] = (),
 ) -> list[dict[str, Any]]:
     """Render every scene of ``scenes`` from every view of ``views`` (module docstring: a
     ``--views`` spec, or a list of :class:`~mi_npr.camera.Camera`, each named by its ``id``)
@@ -787,6 +792,8 @@ def run(
     renders in this process, without Dask. The LocalCluster's dashboard listens on
     ``dashboard`` (``host:port``; default this machine only, a free port) and its link is
     given to ``on_dashboard``. ``views_per_launch`` and ``beauty``: :data:`LAUNCH_PARAMS`.
+    ``frame``: the objects that orbits, spheres and best views frame, by name (default: the
+    objects that matter, :func:`mi_npr.camera.framed_shapes`).
 
     On Dask, a job that goes without progress for longer than its bound (``job_timeout``
     seconds per step, default :data:`JOB_TIMEOUT` plus its samples over
@@ -835,6 +842,7 @@ def run(
         job_timeout=job_timeout,
         views_per_launch=views_per_launch,
         beauty=beauty,
+        frame=names("frame", [frame] if isinstance(frame, str) else list(frame)),
     )
     if flat and len({j.scene for j in jobs}) > 1:
         raise ParameterError("flat outputs are for one scene (its views' files would collide)")

@@ -274,6 +274,7 @@ def explore(
     sensor: int = 0,
     ignore: Sequence[str] = (),
     result: bool = False,
+    frame: Sequence[str] = (),
 ) -> list[Camera] | Exploration:
     """The paper's automatic exploration (section 2.1, last paragraph): a camera path on the
     viewing sphere through good viewpoints, without brusque changes.
@@ -318,7 +319,7 @@ def explore(
     if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 4096:
         raise ParameterError(f"samples = {samples!r}: must be in [1, 4096]")
     s = load_scene(scene)
-    view = viewing(s, res=res, sensor=sensor, ignore=ignore)
+    view = viewing(s, res=res, sensor=sensor, ignore=ignore, frame=frame)
     up = np.asarray(view.up, np.float64)
     dirs, q = sample_sphere(s, view, measure, max(samples * 2, 8))
     elev = np.degrees(np.arcsin(np.clip(dirs @ up, -1, 1)))
@@ -396,11 +397,13 @@ def make_path(
     max_speed: float = 4.0,
     max_turn: float = 12.0,
     explore_ignore: Sequence[str] = (),
+    frame: Sequence[str] = (),
 ) -> list[Camera]:
     """The path of ``mi-npr path``: :func:`explore` with ``explore_measure`` (objects named in
     ``explore_ignore`` count as background), :func:`through` the keyframes ``keys`` (cameras or
     a camera file; a missing ``up`` or ``fov`` is the scene sensor's), else an
-    :func:`~mi_npr.camera.orbit` of ``degrees``."""
+    :func:`~mi_npr.camera.orbit` of ``degrees``; the exploration and the orbit frame the
+    objects named in ``frame`` (default: the objects that matter)."""
     if explore_measure is not None and keys is not None:
         raise ParameterError("explore and keys: give one of them")
     if explore_measure is not None:
@@ -411,6 +414,7 @@ def make_path(
             max_speed=max_speed,
             max_turn=max_turn,
             ignore=explore_ignore,
+            frame=frame,
         )
     frames = check_frames(frames)
     if keys is not None:
@@ -422,7 +426,7 @@ def make_path(
         like = sensor_of(s) if s.sensors() else None
         cams = [resolve(c, like, f"{source}: camera {k}") for k, c in enumerate(cams)]
         return through(cams, frames)
-    return orbit(scene, frames, degrees)
+    return orbit(scene, frames, degrees, frame=frame)
 
 
 def path_qualities(
@@ -688,6 +692,7 @@ def render_path(
     max_speed: float = 4.0,
     max_turn: float = 12.0,
     explore_ignore: Sequence[str] = (),
+    frame: Sequence[str] = (),
     resolution: tuple[int | None, int | None] | None = None,
     spp: int | str | None = None,
     defines: Mapping[str, Any] | None = None,
@@ -706,6 +711,7 @@ def render_path(
         max_speed=max_speed,
         max_turn=max_turn,
         explore_ignore=explore_ignore,
+        frame=frame,
     )
     if options.get("cluster") is not None:  # frames as batch jobs: the workers load the file
         return render_frames(

@@ -47,6 +47,7 @@ from .camera import (
     Camera,
     bounding_sphere,
     fit_distance,
+    framed_shapes,
     on_sphere,
     orbit,
     read_cameras,
@@ -229,7 +230,12 @@ def parse_views(text: str) -> ViewSpec:
 
 
 def sphere(
-    scene: Any, sensor: Any, n: int, upper: bool = True, seed: int | None = None
+    scene: Any,
+    sensor: Any,
+    n: int,
+    upper: bool = True,
+    seed: int | None = None,
+    frame: Sequence[str] = (),
 ) -> list[Camera]:
     """``n`` cameras at Fibonacci-lattice directions on a sphere about the objects that matter
     (:func:`mi_npr.camera.objects_that_matter`: not a floor, a backdrop or a light), at the
@@ -237,12 +243,12 @@ def sphere(
     axis and fov (only the upper half with ``upper``), looking at its centre
     (:func:`mi_npr.camera.sphere_directions`, :func:`mi_npr.camera.on_sphere`). With ``seed``
     the directions are :func:`random_directions` instead (the whole sphere; ``upper`` is
-    ignored)."""
+    ignored). ``frame``: the objects framed instead (:func:`mi_npr.camera.framed_shapes`)."""
 
     scene = load_scene(scene)
     below = seed is not None or not upper
-    view = viewing(scene, res=32, sensor=sensor, allow_below=below)
-    c, r, _ = bounding_sphere(scene)
+    view = viewing(scene, res=32, sensor=sensor, allow_below=below, frame=frame)
+    c, r, _ = bounding_sphere(scene, framed_shapes(scene, frame))
     if np.all(np.isfinite(c)) and math.isfinite(r) and r > 0:
         distance = FRAME_MARGIN * fit_distance(r, view.fov, view.size)
         view = viewing(scene, c, distance, 32, sensor=sensor, allow_below=below)
@@ -253,15 +259,17 @@ def sphere(
     return on_sphere(d, view.target, view.radius, view.up, view.fov)
 
 
-def best(scene: Any, sensor: Any, k: int, measure: str = "entropy") -> list[Camera]:
+def best(
+    scene: Any, sensor: Any, k: int, measure: str = "entropy", frame: Sequence[str] = ()
+) -> list[Camera]:
     """The ``k`` best-rated viewpoints of best view's search (best first, ties in evaluation
-    order)."""
+    order); ``frame``: the objects framed (default: the objects that matter)."""
 
     scene = load_scene(scene)
     k = _whole("views best", "k", k, integer_range(1, MAX_BEST))
     check_measure(measure)
     check_shapes(scene)
-    view = viewing(scene, sensor=sensor)
+    view = viewing(scene, sensor=sensor, frame=frame)
     bv = search(scene, view, measure, 3)
     if k > bv.evaluations:
         raise ParameterError(f"views best:{k}: the search rated only {bv.evaluations} viewpoints")
@@ -273,20 +281,24 @@ def best(scene: Any, sensor: Any, k: int, measure: str = "entropy") -> list[Came
     return out
 
 
-def cameras(spec: ViewSpec, scene: Any, sensor: Any) -> list[tuple[str, Camera | None]]:
+def cameras(
+    spec: ViewSpec, scene: Any, sensor: Any, frame: Sequence[str] = ()
+) -> list[tuple[str, Camera | None]]:
     """The views of ``spec`` for a loaded scene seen by ``sensor``: ``(view id, camera)``;
-    the camera is ``None`` for the ``scene`` view (the sensor itself is rendered)."""
+    the camera is ``None`` for the ``scene`` view (the sensor itself is rendered). ``frame``:
+    the objects that orbits, spheres and best views frame (``--frame``; default: the objects
+    that matter, :func:`mi_npr.camera.framed_shapes`)."""
     ids = spec.ids()
     if spec.kind == "scene":
         return [("scene", None)]
     if spec.kind in ("file", "cameras"):
         return [(str(c.id), c) for c in spec.cameras]
     if spec.kind == "orbit":
-        cams = orbit(scene, spec.n, sensor=sensor)
+        cams = orbit(scene, spec.n, sensor=sensor, frame=frame)
     elif spec.kind == "sphere":
-        cams = sphere(scene, sensor, spec.n, upper=spec.option != "all")
+        cams = sphere(scene, sensor, spec.n, upper=spec.option != "all", frame=frame)
     elif spec.kind == "random":
-        cams = sphere(scene, sensor, spec.n, seed=int(spec.option or 0))
+        cams = sphere(scene, sensor, spec.n, seed=int(spec.option or 0), frame=frame)
     else:
-        cams = best(scene, sensor, spec.n, spec.option)
+        cams = best(scene, sensor, spec.n, spec.option, frame=frame)
     return list(zip(ids, cams, strict=True))

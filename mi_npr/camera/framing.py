@@ -33,6 +33,7 @@ is symmetric). Cameras on it look at the centre with the up of
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 from collections.abc import Sequence
@@ -43,7 +44,7 @@ import numpy as np
 
 from ..errors import ParameterError, shown
 from ..params import MAX_VIEWS
-from ..scene import load_scene, sensor_of, shape_bbox
+from ..scene import load_scene, object_table, sensor_of, shape_bbox
 from .model import Camera, angle_of, nearest_axis, orthogonal_up, rotate, vectors, view_frame
 from .sensor import camera_of
 
@@ -88,6 +89,31 @@ def objects_that_matter(
     elif len(keep) == 1 and flat and stage(keep[0], keep + flat):
         keep = flat  # the one solid shape is the stage of the flat ones: they are the objects
     return keep or shapes
+
+
+def framed_shapes(
+    scene: mi.Scene, frame: Sequence[str] = (), ignore: Sequence[str] = ()
+) -> list[mi.Shape]:
+    """The shapes a view of ``scene`` frames: those named in ``frame`` (object names as
+    ``mi-npr info`` lists them: ``--frame``), else :func:`objects_that_matter` among the shapes
+    not named in ``ignore``. A name the scene does not have is a
+    :class:`~mi_npr.errors.ParameterError` naming the closest ones."""
+    frame = [frame] if isinstance(frame, str) else list(frame or ())
+    ignore = [ignore] if isinstance(ignore, str) else list(ignore or ())
+    if not frame and not ignore:
+        return objects_that_matter(scene)
+    table = object_table(scene)
+    by_name = {name: table.shapes[oid] for oid, name in table.names.items()}
+    for what, names in (("frame", frame), ("ignore", ignore)):
+        for n in names:
+            if n not in by_name:
+                close = difflib.get_close_matches(str(n), list(by_name), 3, 0.5)
+                hint = f"closest: {', '.join(close)}" if close else f"objects: {', '.join(by_name)}"
+                raise ParameterError(f"{what} {n!r}: no such object ({hint})")
+    if frame:
+        return [by_name[n] for n in dict.fromkeys(frame)]
+    dropped = {id(by_name[n]) for n in ignore}
+    return objects_that_matter(scene, [s for s in scene.shapes() if id(s) not in dropped])
 
 
 def bounding_sphere(
@@ -148,9 +174,11 @@ def orbit(
     *,
     sensor: int | mi.Sensor = 0,
     target: Sequence[float] | None = None,
+    frame: Sequence[str] = (),
 ) -> list[Camera]:
     """``n`` cameras turning ``degrees`` about the scene's up axis through ``target`` (default:
-    the centre of the bounding sphere), from the scene's ``sensor`` (module docstring).
+    the centre of the bounding sphere of the objects named in ``frame``, else of the objects
+    that matter), from the scene's ``sensor`` (module docstring).
 
     >>> cams = orbit("scenes_xml/scene3.xml", 12)
     >>> len(cams), cams[0].fov == cams[6].fov, round(cams[3].time, 4)
@@ -165,7 +193,7 @@ def orbit(
     start = camera_of(sensor_of(s, sensor))
     up = nearest_axis(start.up)
     if target is None:
-        c = bounding_sphere(s)[0]
+        c = bounding_sphere(s, framed_shapes(s, frame))[0]
         c = c if np.all(np.isfinite(c)) else np.zeros(3)  # an unbounded scene: the origin
     else:
         c = vectors("target", target).reshape(-1)

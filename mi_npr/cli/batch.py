@@ -41,6 +41,14 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
         help="scene (default), orbit:N, sphere:N[:all], random:N[:SEED], best:K[:MEASURE] or a "
         "JSON file of cameras (origin, target, up, fov)",
     )
+    cmd.add_argument(
+        "--frame",
+        action="append",
+        default=[],
+        metavar="OBJECT",
+        help="orbit, sphere, random, best views: an object they frame, instead of the objects "
+        "that matter (repeatable)",
+    )
     add_drawings(cmd, list(DRAWINGS))
     add_paper(cmd, "<view>")
     add_cluster(cmd, NAME)
@@ -66,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
             progress=bars,
             line_color=params.get("line_color"),
             paper=args.paper,
+            frame=args.frame,
         )
     failed = [r for r in rows if r.get("status") != "done"]
     if not bars:  # else the progress bar printed each line as its job ended

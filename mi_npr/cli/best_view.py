@@ -49,6 +49,13 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
         help="an object whose pixels count as background, e.g. a floor (repeatable)",
     )
     cmd.add_argument(
+        "--frame",
+        action="append",
+        default=[],
+        metavar="OBJECT",
+        help="an object the views frame, instead of the objects that matter (repeatable)",
+    )
+    cmd.add_argument(
         "--allow-below",
         action="store_true",
         help="also rate viewpoints below the scene's ground (the side opposite its camera's up)",
@@ -77,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
             defines=dict(args.defines),
             resolution=resolution(args),
             spp=args.spp,
+            frame=args.frame,
         )
     for w in caught:
         if issubclass(w.category, UserWarning):

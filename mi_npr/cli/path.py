@@ -64,6 +64,14 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
         metavar="OBJECT",
         help="--explore: an object counted as background by the measure (a floor); repeatable",
     )
+    cmd.add_argument(
+        "--frame",
+        action="append",
+        default=[],
+        metavar="OBJECT",
+        help="--orbit, --explore: an object the path frames, instead of the objects that "
+        "matter (repeatable)",
+    )
     add_params(
         cmd, (p for p in PATH_PARAMS if p.name in ("degrees", "max_speed", "max_turn")), NAME
     )
@@ -113,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
             drawing_values(args),
             explore_measure=args.explore,
             explore_ignore=args.explore_ignore,
+            frame=args.frame,
             keys=args.keys,
             degrees=args.degrees,
             max_speed=args.max_speed,

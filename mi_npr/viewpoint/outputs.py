@@ -82,12 +82,14 @@ def write_best_view(
     defines: Mapping[str, Any] | None = None,
     resolution: tuple[int | None, int | None] | None = None,
     spp: int | None = None,
+    frame: Sequence[str] = (),
     **more: Any,
 ) -> tuple[BestView, dict[str, Path]]:
     """Search the best view of the XML scene and write the three files (module docstring).
 
     ``ignore`` names objects whose pixels count as background, ``allow_below`` lets viewpoints
-    below the scene's ground compete (:func:`best_view`); ``sphere=False`` skips the picture.
+    below the scene's ground compete (:func:`best_view`); ``frame`` names the objects framed
+    (default: the objects that matter); ``sphere=False`` skips the picture.
     Warns (``warnings.warn``) when the best view's render is mostly empty or black.
     ``defines`` fill the XML's ``<default>``s (the written film is the film they give). Returns
     the :class:`BestView` and the written paths by kind (``sensor``, ``render``, ``sphere``;
@@ -108,7 +110,7 @@ def write_best_view(
         raise SceneError(f"{scene_path}: {e}") from None
     d = io.check_writable_dir(outdir, create=True)
     stem = stem or Path(scene_path).stem
-    view = viewing(scene, res=res, ignore=ignore, allow_below=allow_below)
+    view = viewing(scene, res=res, ignore=ignore, allow_below=allow_below, frame=frame)
     best = search(scene, view, measure, depth)
     out: dict[str, Path] = {}
     with io.output_set():  # the XML and its PNGs together, or none of them

@@ -82,6 +82,7 @@ from ..camera import (
     camera_of,
     fibonacci_sphere,
     fit_distance,
+    framed_shapes,
     nearest_axis,
     objects_that_matter,
     view_frame,
@@ -200,16 +201,20 @@ def _kept_columns(polys: idbuffer.Polygons, ignore: Sequence[str]) -> np.ndarray
 
 
 def _bounding_sphere(
-    scene: mi.Scene, polys: idbuffer.Polygons, ignore: Sequence[str] = ()
+    scene: mi.Scene, polys: idbuffer.Polygons, ignore: Sequence[str] = (), frame: Sequence[str] = ()
 ) -> tuple[np.ndarray, float, np.ndarray, float]:
-    """``(centre, R, whole, inner)``: the bounding sphere of the objects that matter among
-    those not in ``ignore`` (:func:`mi_npr.camera.objects_that_matter`: a floor, a backdrop or
-    a light does not set the distance, as for orbits and spheres of views; an ignored object
-    neither), and the centre and the inner radius of the box of every shape not ignored (a
-    closed room's walls make its inside; :func:`mi_npr.camera.bounding_sphere`)."""
+    """``(centre, R, whole, inner)``: the bounding sphere of the objects named in ``frame``, else
+    of the objects that matter among those not in ``ignore``
+    (:func:`mi_npr.camera.framed_shapes`: a floor, a backdrop or a light does not set the
+    distance, as for orbits and spheres of views; an ignored object neither), and the centre
+    and the inner radius of the box of every shape not ignored (a closed room's walls make its
+    inside; :func:`mi_npr.camera.bounding_sphere`)."""
     kept = [s for k, s in polys.table.shapes.items() if polys.table.names[k] not in ignore]
     kept = kept or list(scene.shapes())
-    c, r, _ = bounding_sphere(scene, objects_that_matter(scene, kept))
+    if frame:
+        c, r, _ = bounding_sphere(scene, framed_shapes(scene, frame))
+    else:
+        c, r, _ = bounding_sphere(scene, objects_that_matter(scene, kept))
     whole, _, inner = bounding_sphere(scene, kept)
     if not (np.all(np.isfinite(c)) and math.isfinite(r)):
         raise SceneError("the scene's bounding box is not finite: give target and radius")
@@ -226,8 +231,11 @@ def viewing(
     ignore: Sequence[str] = (),
     *,
     allow_below: bool = False,
+    frame: Sequence[str] = (),
 ) -> Viewing:
-    """The viewing setup of ``scene`` with the defaults of the module docstring filled in."""
+    """The viewing setup of ``scene`` with the defaults of the module docstring filled in;
+    ``frame``: the objects whose bounding sphere sets the default target and radius (default:
+    the objects that matter)."""
     if scene.sensors() or isinstance(sensor, mi.Sensor):
         s = sensor_of(scene, sensor)
         cam = camera_of(s)
@@ -245,7 +253,8 @@ def viewing(
     polys = idbuffer.polygons(scene)
     ignore = (ignore,) if isinstance(ignore, str) else names("ignore", ignore)
     keep = _kept_columns(polys, ignore)  # checks the names first
-    centre, R, whole, inner = _bounding_sphere(scene, polys, ignore)
+    frame = (frame,) if isinstance(frame, str) else names("frame", frame)
+    centre, R, whole, inner = _bounding_sphere(scene, polys, ignore, frame)
     if target is not None or radius is not None:
         inner = 0.0  # the user's sphere: no other
     if target is None:
@@ -411,6 +420,7 @@ def best_view(
     allow_below: bool = False,
     beam: int = BEAM,
     max_evaluations: int = MAX_EVALUATIONS,
+    frame: Sequence[str] = (),
 ) -> BestView:
     """Search the viewing sphere for the best viewpoint under ``measure`` (module docstring).
 
@@ -420,6 +430,8 @@ def best_view(
     (never exceeded but by the 5 or 6 axis points). ``allow_below`` lets viewpoints below the
     scene's ground (the side opposite its up axis) compete. ``beam=1, allow_below=True`` is the
     paper's search: one triangle by vertex sum per level, ``6 + 3 depth`` evaluations, no cap.
+    ``frame``: the objects whose bounding sphere the viewing sphere is about (default: the
+    objects that matter, :func:`mi_npr.camera.framed_shapes`).
 
     >>> from mi_npr.viewpoint import best_view
     >>> bv = best_view("scenes_xml/scene4.xml", "entropy", depth=1, res=32)
@@ -434,7 +446,9 @@ def best_view(
             raise ParameterError(f"{name} = {v!r}: must be a positive integer")
     scene = load_scene(scene)
     check_shapes(scene)
-    view = viewing(scene, target, radius, res, fov, sensor, ignore, allow_below=allow_below)
+    view = viewing(
+        scene, target, radius, res, fov, sensor, ignore, allow_below=allow_below, frame=frame
+    )
     return search(scene, view, measure, int(depth), int(beam), int(max_evaluations))
 
 
@@ -461,6 +475,7 @@ def search(
     depth: int,
     beam: int = BEAM,
     max_evaluations: int = MAX_EVALUATIONS,
+    frame: Sequence[str] = (),
 ) -> BestView:
     """The search of :func:`best_view` for a prepared :class:`Viewing` (module docstring)."""
     octants = [t for t in OCTANTS if np.all(view.allowed(AXES[t]))]

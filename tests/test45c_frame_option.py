@@ -1,0 +1,99 @@
+"""``--frame OBJECT``: the objects a view frames, named, instead of the objects that matter,
+for orbits, spheres of views, best views and exploration paths alike; ``--ignore`` sets more
+objects aside; an unknown name is a one-line error naming the closest."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import mi_npr
+from mi_npr import paths, views
+from mi_npr import viewpoint as vp
+from mi_npr.camera import framed_shapes, orbit
+
+from .helpers import run_cli, scene_xml
+
+CUBE = np.array([1.0, 0.3, 0.5])
+BALL = np.array([-3.0, 0.5, 0.0])
+BODY = f"""
+    <shape type="rectangle" id="floor"><transform name="to_world">
+        <scale value="20"/><rotate x="1" angle="-90"/></transform></shape>
+    <shape type="cube" id="cube"><transform name="to_world">
+        <scale value="0.3"/><translate x="{CUBE[0]}" y="{CUBE[1]}" z="{CUBE[2]}"/>
+    </transform></shape>
+    <shape type="sphere" id="ball"><point name="center" x="{BALL[0]}" y="{BALL[1]}" z="{BALL[2]}"/>
+        <float name="radius" value="0.5"/></shape>"""
+
+
+@pytest.fixture(scope="module")
+def path(tmp_path_factory):
+    p = tmp_path_factory.mktemp("frame") / "two.xml"
+    p.write_text(
+        scene_xml(BODY, width=32, height=24, fov=40.0, origin="2, 4, 9", target="-1, 0, 0")
+    )
+    return p
+
+
+@pytest.fixture(scope="module")
+def scene(path):
+    return mi_npr.load_scene(path)
+
+
+def _ids(shapes):
+    return sorted(s.id() for s in shapes)
+
+
+def test01_framed_shapes(scene):
+    assert _ids(framed_shapes(scene)) == ["ball", "cube"]  # the floor is flat
+    assert _ids(framed_shapes(scene, ["ball"])) == ["ball"]
+    assert _ids(framed_shapes(scene, ["floor", "ball"])) == ["ball", "floor"]  # as asked
+    assert _ids(framed_shapes(scene, ignore=["ball"])) == ["cube"]
+    with pytest.raises(mi_npr.ParameterError, match=r"frame 'bal': no such object \(closest: ball"):
+        framed_shapes(scene, ["bal"])
+    with pytest.raises(mi_npr.ParameterError, match=r"ignore 'cub': no such object"):
+        framed_shapes(scene, ignore=["cub"])
+
+
+def test02_every_camera_placement_frames_the_named_object(scene):
+    """Orbit, sphere, random and best views and exploration all look at the ball's centre."""
+    for cam in orbit(scene, 3, frame=["ball"]):
+        np.testing.assert_allclose(cam.target, BALL, atol=1e-5)
+    sensor = scene.sensors()[0]
+    for spec in ("orbit:2", "sphere:2", "random:2:4", "best:2"):
+        for vid, cam in views.cameras(views.parse_views(spec), scene, sensor, frame=("ball",)):
+            np.testing.assert_allclose(cam.target, BALL, atol=1e-5, err_msg=vid)
+    for cam in paths.explore(scene, 3, "entropy", samples=8, res=16, frame=["ball"]):
+        np.testing.assert_allclose(cam.target, BALL, atol=1e-5)
+    bv = vp.best_view(scene, "entropy", depth=1, res=16, frame=["ball"])
+    np.testing.assert_allclose(bv.target, BALL, atol=1e-5)
+    # the default: both objects' sphere, off both centres
+    assert not np.allclose(vp.best_view(scene, depth=1, res=16).target, BALL, atol=1e-3)
+
+
+def test03_the_three_commands_take_frame(path, tmp_path):
+    out = tmp_path / "bv"
+    res = run_cli("best-view", str(path), "--measure", "entropy", "--depth", "1", "--res", "16",
+                  "--frame", "ball", "-o", str(out), "--json")  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    np.testing.assert_allclose(json.loads(res.stdout)["target"], BALL, atol=1e-5)
+    out = tmp_path / "path"
+    res = run_cli("path", str(path), "--orbit", "--frames", "2", "--frame", "ball",
+                  "--width", "16", "--spp", "1", "--no-progress", "-o", str(out))  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    for cam in json.loads((out / "path.json").read_text()):
+        np.testing.assert_allclose(cam["target"], BALL, atol=1e-5)
+    out = tmp_path / "batch"
+    res = run_cli("batch", str(path), "--views", "orbit:2", "--frame", "ball", "--workers", "0",
+                  "--width", "16", "--spp", "1", "--no-progress", "-o", str(out))  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    rows = [json.loads(line) for line in (out / "manifest.jsonl").read_text().splitlines()]
+    assert [r["status"] for r in rows] == ["done", "done"]
+    res = run_cli("path", str(path), "--orbit", "--frames", "2", "--frame", "Ball",
+                  "--width", "16", "--no-progress", "-o", str(tmp_path / "bad"))  # fmt: skip
+    assert res.returncode != 0
+    assert res.stderr.strip().splitlines()[-1] == (
+        "mi-npr: error: frame 'Ball': no such object (closest: ball)"
+    )
