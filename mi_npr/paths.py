@@ -398,12 +398,15 @@ def make_path(
     max_turn: float = 12.0,
     explore_ignore: Sequence[str] = (),
     frame: Sequence[str] = (),
+    orbit_target: str = "objects",
 ) -> list[Camera]:
     """The path of ``mi-npr path``: :func:`explore` with ``explore_measure`` (objects named in
     ``explore_ignore`` count as background), :func:`through` the keyframes ``keys`` (cameras or
     a camera file; a missing ``up`` or ``fov`` is the scene sensor's), else an
     :func:`~mi_npr.camera.orbit` of ``degrees``; the exploration and the orbit frame the
-    objects named in ``frame`` (default: the objects that matter)."""
+    objects named in ``frame`` (default: the objects that matter); ``orbit_target``:
+    ``objects`` (their centre) or ``camera`` (the scene camera's own target,
+    :func:`~mi_npr.camera.orbit`)."""
     if explore_measure is not None and keys is not None:
         raise ParameterError("explore and keys: give one of them")
     if explore_measure is not None:
@@ -426,7 +429,10 @@ def make_path(
         like = sensor_of(s) if s.sensors() else None
         cams = [resolve(c, like, f"{source}: camera {k}") for k, c in enumerate(cams)]
         return through(cams, frames)
-    return orbit(scene, frames, degrees, frame=frame)
+    if orbit_target not in ("objects", "camera"):
+        raise ParameterError(f"orbit_target = {orbit_target!r}: expected 'objects' or 'camera'")
+    target = "camera" if orbit_target == "camera" else None
+    return orbit(scene, frames, degrees, target=target, frame=frame)
 
 
 def path_qualities(
@@ -693,6 +699,7 @@ def render_path(
     max_turn: float = 12.0,
     explore_ignore: Sequence[str] = (),
     frame: Sequence[str] = (),
+    orbit_target: str = "objects",
     resolution: tuple[int | None, int | None] | None = None,
     spp: int | str | None = None,
     defines: Mapping[str, Any] | None = None,
@@ -712,6 +719,7 @@ def render_path(
         max_turn=max_turn,
         explore_ignore=explore_ignore,
         frame=frame,
+        orbit_target=orbit_target,
     )
     if options.get("cluster") is not None:  # frames as batch jobs: the workers load the file
         return render_frames(

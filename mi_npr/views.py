@@ -10,7 +10,9 @@ sensor.
 ``orbit:N``         N views on a circle around the scene's up axis through the centre of its
                     bounding sphere, at the sensor's distance and elevation; view 0 is at the
                     sensor's azimuth (``orbit_000`` ... ``orbit_N-1``, counter-clockwise seen
-                    from above): :func:`mi_npr.camera.orbit`, the camera paths' orbit
+                    from above): :func:`mi_npr.camera.orbit`, the camera paths' orbit;
+                    ``orbit:N:camera`` about the scene camera's own target (its view line
+                    across from that centre: view 0 is the sensor's own view)
 ``sphere:N``        N Fibonacci-lattice directions on the upper half of the viewing sphere
                     (best view's sphere: its up axis, centre and radius); ``sphere:N:all`` the
                     whole sphere (``sphere_000`` ...)
@@ -204,8 +206,10 @@ def parse_views(text: str) -> ViewSpec:
         except ValueError:
             raise ParameterError(f"views = {text!r}: {count!r} is not an integer") from None
         n = check_arg(f"views {kind}", _view_param(kind), n)
-        if kind == "orbit" and option:
-            raise ParameterError(f"views = {text!r}: orbit takes no option")
+        if kind == "orbit" and option not in ("", "camera"):
+            raise ParameterError(
+                f"views = {text!r}: orbit's option is 'camera' (about the scene camera's target)"
+            )
         if kind == "sphere" and option not in ("", "all", "upper"):
             raise ParameterError(f"views = {text!r}: sphere's option is 'all' or 'upper'")
         if kind == "random":
@@ -294,7 +298,8 @@ def cameras(
     if spec.kind in ("file", "cameras"):
         return [(str(c.id), c) for c in spec.cameras]
     if spec.kind == "orbit":
-        cams = orbit(scene, spec.n, sensor=sensor, frame=frame)
+        target = "camera" if spec.option == "camera" else None
+        cams = orbit(scene, spec.n, sensor=sensor, target=target, frame=frame)
     elif spec.kind == "sphere":
         cams = sphere(scene, sensor, spec.n, upper=spec.option != "all", frame=frame)
     elif spec.kind == "random":

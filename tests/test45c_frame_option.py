@@ -97,3 +97,34 @@ def test03_the_three_commands_take_frame(path, tmp_path):
     assert res.stderr.strip().splitlines()[-1] == (
         "mi-npr: error: frame 'Ball': no such object (closest: ball)"
     )
+
+
+def test04_an_orbit_about_the_scene_cameras_own_target(path, scene, tmp_path):
+    """``orbit:N:camera`` and ``path --orbit-target camera``: the centre is the point of the
+    sensor's view line nearest the objects' centre, so view 0 looks exactly where the sensor
+    does, from where it is; the default centre is the objects'."""
+    sensor = mi_npr.camera.camera_of(scene.sensors()[0])
+    o, f = np.asarray(sensor.origin), np.asarray(sensor.forward)
+    cams = orbit(scene, 4, target="camera")
+    c = np.asarray(cams[0].target)
+    np.testing.assert_allclose(np.cross(c - o, f), 0, atol=1e-6)  # on the view line
+    np.testing.assert_allclose(cams[0].origin, o, atol=1e-5)
+    np.testing.assert_allclose(cams[0].forward, f, atol=1e-6)  # the sensor's own view
+    for cam in cams:
+        np.testing.assert_allclose(cam.target, c, atol=1e-6)
+    # across from the centre of the objects (the ball and the cube): the nearest point of the line
+    centre = mi_npr.camera.bounding_sphere(scene)[0]
+    assert abs(np.dot(centre - c, f)) < 1e-6
+    spec = views.parse_views("orbit:3:camera")
+    got = [cam for _, cam in views.cameras(spec, scene, scene.sensors()[0])]
+    np.testing.assert_allclose(got[0].target, c, atol=1e-6)
+    with pytest.raises(mi_npr.ParameterError, match="orbit's option is 'camera'"):
+        views.parse_views("orbit:3:cam")
+    with pytest.raises(mi_npr.ParameterError, match="expected 3 numbers or 'camera'"):
+        orbit(scene, 2, target="sensor")
+    out = tmp_path / "p"
+    res = run_cli("path", str(path), "--orbit", "--frames", "2", "--orbit-target", "camera",
+                  "--width", "16", "--spp", "1", "--no-progress", "-o", str(out))  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    for cam in json.loads((out / "path.json").read_text()):
+        np.testing.assert_allclose(cam["target"], c, atol=1e-5)

@@ -43,7 +43,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError, shown
-from ..params import MAX_VIEWS
+from ..params import MAX_VIEWS, names
 from ..scene import load_scene, object_table, sensor_of, shape_bbox
 from .model import Camera, angle_of, nearest_axis, orthogonal_up, rotate, vectors, view_frame
 from .sensor import camera_of
@@ -98,14 +98,20 @@ def framed_shapes(
     ``mi-npr info`` lists them: ``--frame``), else :func:`objects_that_matter` among the shapes
     not named in ``ignore``. A name the scene does not have is a
     :class:`~mi_npr.errors.ParameterError` naming the closest ones."""
-    frame = [frame] if isinstance(frame, str) else list(frame or ())
-    ignore = [ignore] if isinstance(ignore, str) else list(ignore or ())
+    frame = (
+        [frame] if isinstance(frame, str) else list(names("frame", () if frame is None else frame))
+    )
+    ignore = (
+        [ignore]
+        if isinstance(ignore, str)
+        else list(names("ignore", () if ignore is None else ignore))
+    )
     if not frame and not ignore:
         return objects_that_matter(scene)
     table = object_table(scene)
     by_name = {name: table.shapes[oid] for oid, name in table.names.items()}
-    for what, names in (("frame", frame), ("ignore", ignore)):
-        for n in names:
+    for what, asked in (("frame", frame), ("ignore", ignore)):
+        for n in asked:
             if n not in by_name:
                 close = difflib.get_close_matches(str(n), list(by_name), 3, 0.5)
                 hint = f"closest: {', '.join(close)}" if close else f"objects: {', '.join(by_name)}"
@@ -173,12 +179,14 @@ def orbit(
     degrees: float = 360.0,
     *,
     sensor: int | mi.Sensor = 0,
-    target: Sequence[float] | None = None,
+    target: Sequence[float] | str | None = None,
     frame: Sequence[str] = (),
 ) -> list[Camera]:
     """``n`` cameras turning ``degrees`` about the scene's up axis through ``target`` (default:
-    the centre of the bounding sphere of the objects named in ``frame``, else of the objects
-    that matter), from the scene's ``sensor`` (module docstring).
+    the centre ``c`` of the bounding sphere of the objects named in ``frame``, else of the
+    objects that matter; ``"camera"``: the scene camera's own target, the point of its view
+    line nearest ``c``, so that the first view is the sensor's own), from the scene's
+    ``sensor`` (module docstring).
 
     >>> cams = orbit("scenes_xml/scene3.xml", 12)
     >>> len(cams), cams[0].fov == cams[6].fov, round(cams[3].time, 4)
@@ -192,9 +200,16 @@ def orbit(
     s = load_scene(scene)
     start = camera_of(sensor_of(s, sensor))
     up = nearest_axis(start.up)
-    if target is None:
-        c = bounding_sphere(s, framed_shapes(s, frame))[0]
+    if target is None or (isinstance(target, str) and target == "camera"):
+        c, r, _ = bounding_sphere(s, framed_shapes(s, frame))
         c = c if np.all(np.isfinite(c)) else np.zeros(3)  # an unbounded scene: the origin
+        if target == "camera":  # the sensor keeps no target: its view line across from c
+            f = np.asarray(start.forward, np.float64)
+            depth = float(np.dot(c - np.asarray(start.origin), f))
+            depth = depth if math.isfinite(depth) and depth > 0 else max(float(r), 1.0)
+            c = np.asarray(start.origin, np.float64) + depth * f
+    elif isinstance(target, str):
+        raise ParameterError(f"target = {target!r}: expected 3 numbers or 'camera'")
     else:
         c = vectors("target", target).reshape(-1)
         if c.shape != (3,):

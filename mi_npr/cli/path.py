@@ -58,6 +58,13 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
         "--keys", metavar="CAMERAS.json", help="a smooth path through these keyframe cameras"
     )
     cmd.add_argument(
+        "--orbit-target",
+        choices=["objects", "camera"],
+        default="objects",
+        help="--orbit about the centre of the framed objects (default) or the scene camera's "
+        "own target (its view line across from that centre: frame 0 is the sensor's view)",
+    )
+    cmd.add_argument(
         "--explore-ignore",
         action="append",
         default=[],
@@ -122,6 +129,7 @@ def run(args: argparse.Namespace) -> int:
             explore_measure=args.explore,
             explore_ignore=args.explore_ignore,
             frame=args.frame,
+            orbit_target=args.orbit_target,
             keys=args.keys,
             degrees=args.degrees,
             max_speed=args.max_speed,
