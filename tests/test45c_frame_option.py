@@ -42,6 +42,14 @@ def scene(path):
     return mi_npr.load_scene(path)
 
 
+def _orbit_targets(path, out, *flags):
+    """The targets of ``mi-npr path --orbit`` (2 frames) with ``flags``, from its path.json."""
+    res = run_cli("path", str(path), "--orbit", "--frames", "2", *flags,
+                  "--width", "16", "--spp", "1", "--no-progress", "-o", str(out))  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    return [cam["target"] for cam in json.loads((out / "path.json").read_text())]
+
+
 def _ids(shapes):
     return sorted(s.id() for s in shapes)
 
@@ -79,12 +87,8 @@ def test03_the_three_commands_take_frame(path, tmp_path):
                   "--frame", "ball", "-o", str(out), "--json")  # fmt: skip
     assert res.returncode == 0, res.stderr
     np.testing.assert_allclose(json.loads(res.stdout)["target"], BALL, atol=1e-5)
-    out = tmp_path / "path"
-    res = run_cli("path", str(path), "--orbit", "--frames", "2", "--frame", "ball",
-                  "--width", "16", "--spp", "1", "--no-progress", "-o", str(out))  # fmt: skip
-    assert res.returncode == 0, res.stderr
-    for cam in json.loads((out / "path.json").read_text()):
-        np.testing.assert_allclose(cam["target"], BALL, atol=1e-5)
+    for target in _orbit_targets(path, tmp_path / "path", "--frame", "ball"):
+        np.testing.assert_allclose(target, BALL, atol=1e-5)
     out = tmp_path / "batch"
     res = run_cli("batch", str(path), "--views", "orbit:2", "--frame", "ball", "--workers", "0",
                   "--width", "16", "--spp", "1", "--no-progress", "-o", str(out))  # fmt: skip
@@ -122,9 +126,5 @@ def test04_an_orbit_about_the_scene_cameras_own_target(path, scene, tmp_path):
         views.parse_views("orbit:3:cam")
     with pytest.raises(mi_npr.ParameterError, match="expected 3 numbers or 'camera'"):
         orbit(scene, 2, target="sensor")
-    out = tmp_path / "p"
-    res = run_cli("path", str(path), "--orbit", "--frames", "2", "--orbit-target", "camera",
-                  "--width", "16", "--spp", "1", "--no-progress", "-o", str(out))  # fmt: skip
-    assert res.returncode == 0, res.stderr
-    for cam in json.loads((out / "path.json").read_text()):
-        np.testing.assert_allclose(cam["target"], c, atol=1e-5)
+    for target in _orbit_targets(path, tmp_path / "p", "--orbit-target", "camera"):
+        np.testing.assert_allclose(target, c, atol=1e-5)
