@@ -38,8 +38,8 @@ def add_arguments(cmd: argparse.ArgumentParser) -> None:
         "--views",
         default="scene",
         metavar="SPEC",
-        help="scene (default), orbit:N, sphere:N[:all], random:N[:SEED], best:K[:MEASURE] or a "
-        "JSON file of cameras (origin, target, up, fov)",
+        help="scene (default), orbit:N[:camera], sphere:N[:all], random:N[:SEED], "
+        "best:K[:MEASURE] or a JSON file of cameras (origin, target, up, fov)",
     )
     cmd.add_argument(
         "--frame",
