@@ -842,7 +842,7 @@ def run(
         job_timeout=job_timeout,
         views_per_launch=views_per_launch,
         beauty=beauty,
-        frame=names("frame", [frame] if isinstance(frame, str) else list(frame)),
+        frame=names("frame", (frame,) if isinstance(frame, str) else frame),
     )
     if flat and len({j.scene for j in jobs}) > 1:
         raise ParameterError("flat outputs are for one scene (its views' files would collide)")
