@@ -75,14 +75,17 @@ def objects_that_matter(
     flat = [s for s in lit if is_flat[id(s)]]
     keep = [s for s in lit if not is_flat[id(s)]]
 
+    # each shape's box diagonal and centre once (the stage test compares every pair)
+    diag = {id(s): float(np.linalg.norm(ext[id(s)])) for s in lit}
+    centre = {id(s): 0.5 * (boxes[id(s)][0] + boxes[id(s)][1]) for s in lit}
+
     def stage(s: mi.Shape, among: list[mi.Shape]) -> bool:
         """Far larger than the others of ``among`` and holding their centres."""
-        others = [boxes[id(t)] for t in among if t is not s]
+        others = [id(t) for t in among if t is not s]
         lo, hi = boxes[id(s)]
-        diag = float(np.linalg.norm(hi - lo))
-        return diag > HUGE * float(
-            np.median([np.linalg.norm(b[1] - b[0]) for b in others])
-        ) and all(np.all((0.5 * (b[0] + b[1]) >= lo) & (0.5 * (b[0] + b[1]) <= hi)) for b in others)
+        return diag[id(s)] > HUGE * float(np.median([diag[k] for k in others])) and all(
+            np.all((centre[k] >= lo) & (centre[k] <= hi)) for k in others
+        )
 
     if len(keep) > 1:
         keep = [s for s in keep if not stage(s, keep)] or keep
