@@ -37,7 +37,7 @@ import mitsuba as mi
 import numpy as np
 
 from .. import io
-from ..camera import Camera, bounding_sphere, view_frame
+from ..camera import Camera, across_from, bounding_sphere, view_frame
 from ..camera.sensor import camera_of, resolve, sensor_xml
 from ..errors import ParameterError
 from ..params import Param, check_arg, entry, integer_range, real_range
@@ -148,11 +148,7 @@ def _sensor_start(scene: mi.Scene, sensor: mi.Sensor) -> Camera:
     scene's objects (a sensor keeps no target, and the distance to it scales the steps)."""
     c = camera_of(sensor)
     centre, radius, _ = bounding_sphere(scene)
-    f = c.forward
-    depth = float(np.dot(np.subtract(centre, c.origin), f))
-    if not np.isfinite(depth) or depth <= 0.0:
-        depth = max(float(radius), 1.0)
-    return Camera(c.origin, tuple(np.add(c.origin, depth * f)), c.up, c.fov)
+    return Camera(c.origin, tuple(across_from(c, centre, radius)), c.up, c.fov)
 
 
 def fit_camera(

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from .files import from_data, from_json, read_cameras, to_json
 from .framing import (
+    across_from,
     bounding_sphere,
     fibonacci_sphere,
     fit_distance,
@@ -52,6 +53,7 @@ from .sensor import (
 __all__ = [
     "DEFAULT_FOV",
     "Camera",
+    "across_from",
     "bounding_sphere",
     "camera_of",
     "check_lookat",

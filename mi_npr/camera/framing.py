@@ -176,6 +176,23 @@ def _count(who: str, n: Any) -> int:
     return int(n)
 
 
+def across_from(camera: Camera, centre: Any, radius: float) -> np.ndarray:
+    """The point of ``camera``'s view line nearest ``centre`` (its depth ``(centre - origin) .
+    forward``), or ``max(radius, 1)`` along it where ``centre`` is not in front: the target of a
+    sensor, which keeps none, across from the objects it looks at."""
+    c = vectors("centre", centre).reshape(-1)
+    if c.shape != (3,):
+        raise ParameterError(f"centre = {shown(centre)}: expected 3 finite numbers")
+    if isinstance(radius, bool) or not isinstance(radius, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"radius = {shown(radius)}: expected a number")
+    f = np.asarray(camera.forward, np.float64)
+    origin = np.asarray(camera.origin, np.float64)
+    depth = float(np.dot(c - origin, f))
+    if not math.isfinite(depth) or depth <= 0.0:
+        depth = max(float(radius), 1.0)
+    return origin + depth * f
+
+
 def orbit(
     scene: SceneLike,
     n: int,
@@ -207,10 +224,7 @@ def orbit(
         c, r, _ = bounding_sphere(s, framed_shapes(s, frame))
         c = c if np.all(np.isfinite(c)) else np.zeros(3)  # an unbounded scene: the origin
         if target == "camera":  # the sensor keeps no target: its view line across from c
-            f = np.asarray(start.forward, np.float64)
-            depth = float(np.dot(c - np.asarray(start.origin), f))
-            depth = depth if math.isfinite(depth) and depth > 0 else max(float(r), 1.0)
-            c = np.asarray(start.origin, np.float64) + depth * f
+            c = across_from(start, c, r)
     elif isinstance(target, str):
         raise ParameterError(f"target = {target!r}: expected 3 numbers or 'camera'")
     else:
