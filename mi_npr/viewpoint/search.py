@@ -84,7 +84,6 @@ from ..camera import (
     fit_distance,
     framed_shapes,
     nearest_axis,
-    objects_that_matter,
     view_frame,
 )
 from ..errors import ParameterError, SceneError
@@ -209,13 +208,9 @@ def _bounding_sphere(
     distance, as for orbits and spheres of views; an ignored object neither), and the centre
     and the inner radius of the box of every shape not ignored (a closed room's walls make its
     inside; :func:`mi_npr.camera.bounding_sphere`)."""
+    c, r, _ = bounding_sphere(scene, framed_shapes(scene, frame, ignore))
     kept = [s for k, s in polys.table.shapes.items() if polys.table.names[k] not in ignore]
-    kept = kept or list(scene.shapes())
-    if frame:
-        c, r, _ = bounding_sphere(scene, framed_shapes(scene, frame))
-    else:
-        c, r, _ = bounding_sphere(scene, objects_that_matter(scene, kept))
-    whole, _, inner = bounding_sphere(scene, kept)
+    whole, _, inner = bounding_sphere(scene, kept or list(scene.shapes()))
     if not (np.all(np.isfinite(c)) and math.isfinite(r)):
         raise SceneError("the scene's bounding box is not finite: give target and radius")
     return c, r, whole, inner
