@@ -85,7 +85,7 @@ from .params import (
     Param,
     check_arg,
     integer_range,
-    names,
+    name_list,
     real_range,
 )
 from .pipeline import render_layers
@@ -842,7 +842,7 @@ def run(
         job_timeout=job_timeout,
         views_per_launch=views_per_launch,
         beauty=beauty,
-        frame=names("frame", (frame,) if isinstance(frame, str) else frame),
+        frame=name_list("frame", frame),
     )
     if flat and len({j.scene for j in jobs}) > 1:
         raise ParameterError("flat outputs are for one scene (its views' files would collide)")

@@ -123,6 +123,11 @@ def names(what: str, value: Any) -> tuple[str, ...]:
     return tuple(value)
 
 
+def name_list(what: str, value: Any) -> tuple[str, ...]:
+    """:func:`names`, where a lone string is one name (``ignore="floor"``)."""
+    return (value,) if isinstance(value, str) else names(what, value)
+
+
 def coerce(plugin: str, p: Param, value: Any) -> Any:
     """Convert ``value`` to ``p.type`` or raise :class:`ParameterError`."""
     bad = f"{plugin}: parameter {p.name!r} = {shown(value)}"

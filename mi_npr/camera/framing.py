@@ -43,7 +43,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import ParameterError, shown
-from ..params import MAX_VIEWS, names
+from ..params import MAX_VIEWS, name_list
 from ..scene import load_scene, object_table, sensor_of, shape_bbox
 from .model import Camera, angle_of, nearest_axis, orthogonal_up, rotate, vectors, view_frame
 from .sensor import camera_of
@@ -101,14 +101,8 @@ def framed_shapes(
     ``mi-npr info`` lists them: ``--frame``), else :func:`objects_that_matter` among the shapes
     not named in ``ignore``. A name the scene does not have is a
     :class:`~mi_npr.errors.ParameterError` naming the closest ones."""
-    frame = (
-        [frame] if isinstance(frame, str) else list(names("frame", () if frame is None else frame))
-    )
-    ignore = (
-        [ignore]
-        if isinstance(ignore, str)
-        else list(names("ignore", () if ignore is None else ignore))
-    )
+    frame = name_list("frame", () if frame is None else frame)
+    ignore = name_list("ignore", () if ignore is None else ignore)
     if not frame and not ignore:
         return objects_that_matter(scene)
     table = object_table(scene)

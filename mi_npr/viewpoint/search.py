@@ -88,7 +88,16 @@ from ..camera import (
 )
 from ..errors import ParameterError, SceneError
 from ..memory import check_images
-from ..params import MAX_RES, MAX_VIEW_DEPTH, Param, check_arg, entry, integer_range, names
+from ..params import (
+    MAX_RES,
+    MAX_VIEW_DEPTH,
+    Param,
+    check_arg,
+    entry,
+    integer_range,
+    name_list,
+    names,
+)
 from ..scene import load_scene, sensor_of
 from . import idbuffer
 from .measures import MEASURES, SparseAreas, Topology, check_measure
@@ -246,9 +255,9 @@ def viewing(
     size = idbuffer.image_size(res, aspect)
     check_images(size[0], size[1], 12, "ID buffers")  # the largest batch: 12 first-level midpoints
     polys = idbuffer.polygons(scene)
-    ignore = (ignore,) if isinstance(ignore, str) else names("ignore", ignore)
+    ignore = name_list("ignore", ignore)
     keep = _kept_columns(polys, ignore)  # checks the names first
-    frame = (frame,) if isinstance(frame, str) else names("frame", frame)
+    frame = name_list("frame", frame)
     centre, R, whole, inner = _bounding_sphere(scene, polys, ignore, frame)
     if target is not None or radius is not None:
         inner = 0.0  # the user's sphere: no other
