@@ -13,10 +13,11 @@ from .. import layers as L
 from ..compose import INK, PAPER, lines_on_paper, raw_beauty
 from ..errors import ParameterError
 from ..gbuffer import GBuffer
+from ..strokes.drawing import StrokeDrawing
 from ._atomic import atomic_output, check_writable_dir, output_set
 from .exr import ExrImage, describe, exr_image, read_exr, write_exr, write_exr_image
 from .png import linear_to_srgb, to_rgb8, write_png
-from .strokes import stroke_files, write_strokes
+from .strokes import stroke_files
 from .svg import SVG_IMAGE, svg_document, write_contour_outputs, write_svg
 from .text import write_text
 
@@ -186,6 +187,15 @@ def write_files(
         if pool is not None:  # a failure: the texts not started are not made
             pool.shutdown(wait=True, cancel_futures=True)
     return [p for p in out if p is not None]
+
+
+def write_strokes(
+    drawing: StrokeDrawing, outdir: str | os.PathLike[str], stem: str, title: str | None = None
+) -> list[Path]:
+    """Write a stroke drawing's ``<stem>_strokes.svg``,
+    ``.json`` and ``.png`` (:func:`mi_npr.io.strokes.stroke_files`) into ``outdir``, all or
+    none (:func:`write_files`)."""
+    return write_files(check_writable_dir(outdir, create=True), stroke_files(drawing, stem, title))
 
 
 __all__ = [

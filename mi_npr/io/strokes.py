@@ -64,8 +64,6 @@ from __future__ import annotations
 
 import functools
 import json
-import os
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -75,10 +73,7 @@ from ..compose import PAPER
 from ..strokes.drawing import StrokeDrawing
 from ..strokes.model import KINDS
 from ..strokes.raster import on_background
-from ._atomic import check_writable_dir, output_set
-from .png import write_png
 from .svg import StrokeLayer, style_arrays, svg_document
-from .text import write_text
 
 
 def stroke_svg(drawing: StrokeDrawing, title: str | None = None) -> str:
@@ -208,19 +203,3 @@ def stroke_files(
         (f"{stem}_strokes.json", functools.partial(stroke_json, drawing)),
         (f"{stem}_strokes.png", strokes_on_paper(drawing)),
     ]
-
-
-def write_strokes(
-    drawing: StrokeDrawing, outdir: str | os.PathLike[str], stem: str, title: str | None = None
-) -> list[Path]:
-    """Write ``<stem>_strokes.svg``, ``.json`` and ``.png`` into ``outdir``, all or none."""
-    d = check_writable_dir(outdir, create=True)
-    files = stroke_files(drawing, stem, title)
-    out = []
-    with output_set():
-        for name, data in files:
-            if callable(data):
-                out.append(write_text(d / name, data()))
-            else:
-                out.append(write_png(d / name, data))
-    return out
